@@ -1,0 +1,90 @@
+#pragma once
+/** \file pipeline.h
+ *  The pipeline YAML (docs/config.md):
+ *
+ *      pipeline: {name, mode: sequential|parallel, seed}
+ *      dataset:  {type, params: {...}, on_bad_frame: fail|skip, start, max_frames, stride}
+ *      camera:   {preset | intrinsics...}   # or $include{../cameras/x.yaml}; omit to use the dataset's
+ *      slam:     {...}                      # core SLAM parameters (registered section)
+ *      modules:  [{name, type, params, inputs, enabled}, ...]
+ *      outputs:  {dir, trajectory, trajectory_format, ...}
+ *      plugin_dirs: [...]
+ *
+ *  loadPipeline() validates everything (unknown key, wrong type, missing
+ *  required key, unknown plugin type) and fills every default, without
+ *  running anything. */
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dslam/core/camera.h"
+#include "dslam/core/params.h"
+
+namespace dslam::config {
+
+enum class Mode { Sequential, Parallel };
+
+struct ModuleConfig {
+  std::string name;
+  std::string type;      ///< registered plugin name, e.g. dslam::BoxFilter
+  std::string interface_name;
+  Params params;
+  std::vector<std::string> inputs;
+  bool enabled = true;
+  SourceLocation where;
+};
+
+struct DatasetConfig {
+  std::string type;
+  Params params;
+  std::string on_bad_frame = "fail";  ///< fail | skip
+  int start = 0;
+  int max_frames = -1;
+  int stride = 1;
+};
+
+struct PipelineConfig {
+  std::string file;  ///< source file ("" when built from text)
+  std::string dir;   ///< base folder for relative paths
+  std::string name;
+  Mode mode = Mode::Sequential;
+  uint64_t seed = 42;
+  std::optional<DatasetConfig> dataset;
+  std::optional<CameraModel> camera;  ///< nullopt: take the dataset's calibration
+  std::map<std::string, Params> sections;  ///< registered extra sections ("slam", ...)
+  std::vector<ModuleConfig> modules;
+  Params outputs;
+  std::vector<std::string> plugin_dirs;
+
+  /** Modules implementing one interface, in file order (enabled only). */
+  std::vector<const ModuleConfig*> modulesOf(const std::string& interface_name) const;
+  /** The fully resolved configuration as YAML (every default filled). */
+  std::string toYaml() const;
+};
+
+/** Registers an extra top-level section with its parameter list (the SLAM
+ *  engine registers "slam"). Call before loadPipeline(). */
+void registerSection(const std::string& name, std::function<std::vector<ParamSpec>()> specs,
+                     const std::string& doc);
+struct SectionInfo {
+  std::string name, doc;
+  std::function<std::vector<ParamSpec>()> specs;
+};
+std::vector<SectionInfo> registeredSections();
+
+std::vector<ParamSpec> pipelineParamSpecs();
+std::vector<ParamSpec> datasetCommonParamSpecs();
+std::vector<ParamSpec> outputParamSpecs();
+
+/** Loads and validates a pipeline file. Plugins must be registered. */
+PipelineConfig loadPipeline(const std::string& file);
+/** Same from text (tests, embedding); relative paths resolve against base_dir. */
+PipelineConfig loadPipelineText(const std::string& text, const std::string& base_dir = ".");
+
+/** Guesses the dataset plugin for a path: TUM / Bonn folder (rgb.txt),
+ *  KITTI (calib.txt), EuRoC (mav0/), MRPT rawlog (*.rawlog). Empty if unknown. */
+std::string detectDatasetType(const std::string& path);
+
+}  // namespace dslam::config

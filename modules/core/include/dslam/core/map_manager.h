@@ -1,0 +1,41 @@
+#pragma once
+/** \file map_manager.h
+ *  Interface of map managers (Atlas, persistence filter). The map data
+ *  structures (Map, KeyFrame, MapPoint) live in modules/map. */
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dslam/core/plugin.h"
+
+namespace dslam {
+
+class Map;
+class MapPoint;
+class KeyFrame;
+
+class MapManager : public Plugin {
+  DEFINE_VIRTUAL_MRPT_OBJECT(MapManager)
+ public:
+  const char* interfaceName() const override { return "MapManager"; }
+  /** The map tracking works in. Never null after reset(). */
+  virtual std::shared_ptr<Map> currentMap() = 0;
+  /** Starts a new map (tracking lost and relocalisation failed) and makes it current. */
+  virtual std::shared_ptr<Map> createMap() = 0;
+  virtual std::vector<std::shared_ptr<Map>> maps() const = 0;
+  /** Drops every map and starts an empty one. */
+  virtual void reset() = 0;
+  /** Whether a map point may take part in tracking, relocalisation and loop
+   *  closing (a persistence filter deactivates points of moved objects). */
+  virtual bool isActive(const MapPoint& p) const {
+    (void)p;
+    return true;
+  }
+  /** Called after each keyframe insertion (persistence bookkeeping). */
+  virtual void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) { (void)kf; }
+  /** Saves / loads every map. Throw Error with a message on failure. */
+  virtual void save(const std::string& path) const = 0;
+  virtual void load(const std::string& path) = 0;
+};
+
+}  // namespace dslam

@@ -1,0 +1,22 @@
+#pragma once
+/** \file paths.h
+ *  Locations of shared data and path helpers. */
+#include <string>
+
+namespace dslam {
+
+/** Root of the shared models/data folder: $DSLAM_SHARED_DIR if set, else the
+ *  path configured at build time (<source>/../shared). */
+std::string sharedDir();
+/** sharedDir() + "/" + rel; throws DataError naming the file and pointing at
+ *  scripts/download_data.sh if it does not exist. */
+std::string sharedPath(const std::string& rel);
+/** Resolves `p` against `base_dir` unless absolute; expands a leading "~/". */
+std::string resolvePath(const std::string& p, const std::string& base_dir);
+bool fileExists(const std::string& p);
+bool dirExists(const std::string& p);
+/** Throws DataError("<what> not found: <path>" + hint) if missing. */
+void requireFile(const std::string& p, const std::string& what, const std::string& hint = "");
+void requireDir(const std::string& p, const std::string& what, const std::string& hint = "");
+
+}  // namespace dslam

@@ -1,0 +1,59 @@
+#include "dslam/core/paths.h"
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "dslam/core/error.h"
+
+#ifndef DSLAM_DEFAULT_SHARED_DIR
+#define DSLAM_DEFAULT_SHARED_DIR "../shared"
+#endif
+
+namespace fs = std::filesystem;
+
+namespace dslam {
+
+std::string sharedDir() {
+  if (const char* e = std::getenv("DSLAM_SHARED_DIR"); e && *e) return e;
+  return fs::path(DSLAM_DEFAULT_SHARED_DIR).lexically_normal().string();
+}
+
+std::string sharedPath(const std::string& rel) {
+  const std::string p = (fs::path(sharedDir()) / rel).string();
+  requireFile(p, "shared data file",
+              "set DSLAM_SHARED_DIR to the shared folder (default ../shared beside the "
+              "checkout) or fetch the upstream files with scripts/download_data.sh");
+  return p;
+}
+
+std::string resolvePath(const std::string& p, const std::string& base_dir) {
+  if (p.empty()) return p;
+  if (p.rfind("~/", 0) == 0) {
+    if (const char* h = std::getenv("HOME")) return (fs::path(h) / p.substr(2)).string();
+  }
+  fs::path pp(p);
+  if (pp.is_absolute() || base_dir.empty()) return pp.lexically_normal().string();
+  return (fs::path(base_dir) / pp).lexically_normal().string();
+}
+
+bool fileExists(const std::string& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+bool dirExists(const std::string& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+
+void requireFile(const std::string& p, const std::string& what, const std::string& hint) {
+  if (!fileExists(p))
+    throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));
+}
+
+void requireDir(const std::string& p, const std::string& what, const std::string& hint) {
+  if (!dirExists(p))
+    throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));
+}
+
+}  // namespace dslam

@@ -1,0 +1,244 @@
+#include "dslam/trajectory/io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "dslam/core/error.h"
+#include "dslam/core/yaml_util.h"
+
+namespace dslam::traj {
+
+Format formatFromString(const std::string& s) {
+  if (s == "auto") return Format::Auto;
+  if (s == "tum") return Format::Tum;
+  if (s == "kitti") return Format::Kitti;
+  if (s == "euroc") return Format::Euroc;
+  throw ConfigError("unknown trajectory format '" + s + "' (valid: auto, tum, kitti, euroc)");
+}
+
+const char* toString(Format f) {
+  switch (f) {
+    case Format::Auto: return "auto";
+    case Format::Tum: return "tum";
+    case Format::Kitti: return "kitti";
+    case Format::Euroc: return "euroc";
+  }
+  return "?";
+}
+
+namespace {
+
+struct Line {
+  int lineno;
+  std::vector<std::string> fields;
+};
+
+/** Splits data lines on whitespace and/or commas; skips blanks and '#' comments. */
+std::vector<Line> readLines(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw DataError("cannot open trajectory file: " + path);
+  std::vector<Line> out;
+  std::string s;
+  int n = 0;
+  while (std::getline(f, s)) {
+    n++;
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    size_t p = s.find_first_not_of(" \t");
+    if (p == std::string::npos || s[p] == '#') continue;
+    Line l{n, {}};
+    std::string tok;
+    for (char c : s) {
+      if (c == ' ' || c == '\t' || c == ',') {
+        if (!tok.empty()) l.fields.push_back(tok);
+        tok.clear();
+      } else {
+        tok += c;
+      }
+    }
+    if (!tok.empty()) l.fields.push_back(tok);
+    out.push_back(std::move(l));
+  }
+  return out;
+}
+
+double num(const std::string& path, const Line& l, size_t i) {
+  auto v = yamlu::parseDouble(l.fields[i]);
+  if (!v) throw DataError(path + ":" + std::to_string(l.lineno) + ": field " + std::to_string(i + 1) + " is not a number: '" + l.fields[i] + "'");
+  if (!std::isfinite(*v)) throw DataError(path + ":" + std::to_string(l.lineno) + ": field " + std::to_string(i + 1) + " is not finite: '" + l.fields[i] + "'");
+  return *v;
+}
+
+void need(const std::string& path, const Line& l, size_t n, const char* fmt) {
+  if (l.fields.size() < n)
+    throw DataError(path + ":" + std::to_string(l.lineno) + ": expected " + std::to_string(n) + " values (" + fmt +
+                    "), got " + std::to_string(l.fields.size()));
+}
+
+void checkIncreasing(const std::string& path, const Line& l, const Trajectory& t, double stamp) {
+  if (!t.empty() && !(stamp > t.stamps.back())) {
+    char buf[128];
+    std::snprintf(buf, sizeof(buf), "%.9f after %.9f", stamp, t.stamps.back());
+    throw DataError(path + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + buf + ")");
+  }
+}
+
+SE3 fromQuat(double qw, double qx, double qy, double qz, const Eigen::Vector3d& t, const std::string& path, const Line& l) {
+  Eigen::Quaterniond q(qw, qx, qy, qz);
+  if (q.norm() < 1e-6) throw DataError(path + ":" + std::to_string(l.lineno) + ": zero quaternion");
+  return SE3(q.normalized(), t);
+}
+
+SE3 from3x4(const std::string& path, const Line& l, size_t off) {
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 4; c++) T(r, c) = num(path, l, off + r * 4 + c);
+  Eigen::Matrix3d R = T.block<3, 3>(0, 0);
+  // Re-orthonormalise (KITTI files are printed with ~6 digits).
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  R = svd.matrixU() * svd.matrixV().transpose();
+  if (R.determinant() < 0) throw DataError(path + ":" + std::to_string(l.lineno) + ": rotation has determinant < 0");
+  return SE3(R, Eigen::Vector3d(T.block<3, 1>(0, 3)));
+}
+
+}  // namespace
+
+Format detectFormat(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".csv") return Format::Euroc;
+  auto lines = readLines(path);
+  if (lines.empty()) throw DataError("trajectory file has no data lines: " + path);
+  const size_t n = lines.front().fields.size();
+  if (n == 8) return Format::Tum;
+  if (n == 12 || n == 13) return Format::Kitti;
+  if (n >= 8) return Format::Euroc;
+  throw DataError(path + ":" + std::to_string(lines.front().lineno) + ": cannot tell the trajectory format from " +
+                  std::to_string(n) + " columns (TUM: 8, KITTI: 12 or 13, EuRoC: >= 8 comma separated)");
+}
+
+Trajectory readTum(const std::string& path, bool inc) {
+  Trajectory t;
+  for (const auto& l : readLines(path)) {
+    need(path, l, 8, "timestamp tx ty tz qx qy qz qw");
+    const double stamp = num(path, l, 0);
+    if (inc) checkIncreasing(path, l, t, stamp);
+    t.push_back(stamp, fromQuat(num(path, l, 7), num(path, l, 4), num(path, l, 5), num(path, l, 6),
+                                {num(path, l, 1), num(path, l, 2), num(path, l, 3)}, path, l));
+  }
+  return t;
+}
+
+Trajectory readKitti(const std::string& path, const std::string& times_path, double rate, bool inc) {
+  std::vector<double> times;
+  if (!times_path.empty()) {
+    for (const auto& l : readLines(times_path)) times.push_back(num(times_path, l, 0));
+  }
+  Trajectory t;
+  size_t i = 0;
+  for (const auto& l : readLines(path)) {
+    need(path, l, 12, "3x4 row-major pose");
+    double stamp;
+    size_t off = 0;
+    if (l.fields.size() >= 13) {
+      stamp = num(path, l, 0);
+      off = 1;
+    } else if (!times.empty()) {
+      if (i >= times.size())
+        throw DataError(times_path + ": has " + std::to_string(times.size()) + " times but " + path + " has more poses");
+      stamp = times[i];
+    } else {
+      stamp = static_cast<double>(i) / rate;
+    }
+    if (inc) checkIncreasing(path, l, t, stamp);
+    t.push_back(stamp, from3x4(path, l, off));
+    i++;
+  }
+  return t;
+}
+
+Trajectory readEuroc(const std::string& path, bool inc) {
+  Trajectory t;
+  for (const auto& l : readLines(path)) {
+    need(path, l, 8, "timestamp[ns], px, py, pz, qw, qx, qy, qz");
+    const double stamp = num(path, l, 0) * 1e-9;
+    if (inc) checkIncreasing(path, l, t, stamp);
+    t.push_back(stamp, fromQuat(num(path, l, 4), num(path, l, 5), num(path, l, 6), num(path, l, 7),
+                                {num(path, l, 1), num(path, l, 2), num(path, l, 3)}, path, l));
+  }
+  return t;
+}
+
+Trajectory read(const std::string& path, const ReadOptions& opt) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw DataError("trajectory file not found: " + path);
+  Format f = opt.format == Format::Auto ? detectFormat(path) : opt.format;
+  Trajectory t;
+  switch (f) {
+    case Format::Tum: t = readTum(path, opt.require_increasing); break;
+    case Format::Kitti: t = readKitti(path, opt.kitti_times, opt.kitti_rate, opt.require_increasing); break;
+    case Format::Euroc: t = readEuroc(path, opt.require_increasing); break;
+    case Format::Auto: break;
+  }
+  if (t.empty()) throw DataError("trajectory file has no poses: " + path);
+  return t;
+}
+
+void write(const std::string& path, const Trajectory& t, const WriteOptions& opt) {
+  std::ofstream f(path);
+  if (!f) throw DataError("cannot write trajectory file: " + path);
+  auto header = [&](const char* prefix) {
+    std::istringstream in(opt.header);
+    std::string l;
+    while (std::getline(in, l)) f << prefix << l << "\n";
+  };
+  char buf[512];
+  switch (opt.format) {
+    case Format::Auto:
+    case Format::Tum:
+      header("# ");
+      for (size_t i = 0; i < t.size(); i++) {
+        const auto& q = t.poses[i].quaternion();
+        const auto& p = t.poses[i].translation();
+        std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", t.stamps[i], p.x(), p.y(), p.z(),
+                      q.x(), q.y(), q.z(), q.w());
+        f << buf;
+      }
+      break;
+    case Format::Kitti:
+      for (size_t i = 0; i < t.size(); i++) {
+        const Eigen::Matrix4d M = t.poses[i].matrix();
+        if (opt.kitti_with_times) {
+          std::snprintf(buf, sizeof(buf), "%.9f ", t.stamps[i]);
+          f << buf;
+        }
+        for (int r = 0; r < 3; r++)
+          for (int c = 0; c < 4; c++) {
+            std::snprintf(buf, sizeof(buf), "%.12e%s", M(r, c), (r == 2 && c == 3) ? "\n" : " ");
+            f << buf;
+          }
+      }
+      break;
+    case Format::Euroc:
+      header("# ");
+      f << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+      for (size_t i = 0; i < t.size(); i++) {
+        const auto& q = t.poses[i].quaternion();
+        const auto& p = t.poses[i].translation();
+        std::snprintf(buf, sizeof(buf), "%lld,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n",
+                      static_cast<long long>(std::llround(t.stamps[i] * 1e9)), p.x(), p.y(), p.z(), q.w(), q.x(),
+                      q.y(), q.z());
+        f << buf;
+      }
+      break;
+  }
+  if (!f) throw DataError("error writing trajectory file: " + path);
+}
+
+void writeTum(const std::string& path, const Trajectory& t, const std::string& header) {
+  write(path, t, WriteOptions{Format::Tum, false, header});
+}
+
+}  // namespace dslam::traj

@@ -1,0 +1,96 @@
+#include "test_support.h"
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <vector>
+
+#include "dslam/core/paths.h"
+
+namespace fs = std::filesystem;
+
+namespace dslam::test {
+
+std::string shared(const std::string& rel) {
+  const std::string p = (fs::path(sharedDir()) / rel).string();
+  if (fs::exists(p)) return p;
+  const char* allow = std::getenv("DSLAM_ALLOW_MISSING_SHARED");
+  if (allow && std::string(allow) == "1") {
+    std::cerr << "[skip] shared data missing: " << p << "\n";
+    return "";
+  }
+  ADD_FAILURE() << "shared data missing: " << p
+                << " (set DSLAM_SHARED_DIR; DSLAM_ALLOW_MISSING_SHARED=1 skips such tests)";
+  return "";
+}
+
+std::string source(const std::string& rel) {
+  const char* e = std::getenv("DSLAM_SOURCE_DIR");
+  return (fs::path(e && *e ? e : DSLAM_TEST_SOURCE_DIR) / rel).string();
+}
+
+namespace {
+struct TempDirs {
+  std::mutex m;
+  std::vector<std::string> dirs;
+  ~TempDirs() {
+    if (std::getenv("DSLAM_KEEP_TEST_DIRS")) return;
+    for (auto& d : dirs) {
+      std::error_code ec;
+      fs::remove_all(d, ec);
+    }
+  }
+} g_temp;
+}  // namespace
+
+std::string tempDir(const std::string& tag) {
+  std::string tmpl = (fs::temp_directory_path() / ("dslam_" + tag + "_XXXXXX")).string();
+  std::vector<char> buf(tmpl.begin(), tmpl.end());
+  buf.push_back('\0');
+  if (!mkdtemp(buf.data())) throw std::runtime_error("mkdtemp failed for " + tmpl);
+  std::lock_guard<std::mutex> lk(g_temp.m);
+  g_temp.dirs.emplace_back(buf.data());
+  return g_temp.dirs.back();
+}
+
+std::string dslamExe() {
+  const char* e = std::getenv("DSLAM_EXE");
+  if (e && *e) return e;
+  const char* b = std::getenv("DSLAM_BINARY_DIR");
+  return (fs::path(b && *b ? b : ".") / "bin" / "dslam").string();
+}
+
+CmdResult run(const std::string& cmdline) {
+  CmdResult r;
+  FILE* p = popen((cmdline + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+CmdResult runDslam(const std::string& args) { return run("\"" + dslamExe() + "\" " + args); }
+
+std::string readFile(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+void writeFile(const std::string& path, const std::string& content) {
+  fs::create_directories(fs::path(path).parent_path());
+  std::ofstream f(path);
+  f << content;
+}
+
+}  // namespace dslam::test

@@ -1,0 +1,37 @@
+#pragma once
+/** \file test_support.h
+ *  Helpers for dslam's gtest suites. */
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace dslam::test {
+
+/** Path inside ../shared (DSLAM_SHARED_DIR). Fails the test (FATAL) if it
+ *  does not exist, unless DSLAM_ALLOW_MISSING_SHARED=1 (then skips). */
+std::string shared(const std::string& rel);
+/** Source tree path (configs, scenarios). */
+std::string source(const std::string& rel);
+/** A fresh empty temporary directory, removed at process exit. */
+std::string tempDir(const std::string& tag);
+/** Path of the dslam executable (DSLAM_EXE, set by ctest). */
+std::string dslamExe();
+
+struct CmdResult {
+  int exit_code = -1;
+  std::string out;  ///< stdout and stderr, merged
+};
+/** Runs a shell command line and captures its output. */
+CmdResult run(const std::string& cmdline);
+/** Runs `dslam <args>`. */
+CmdResult runDslam(const std::string& args);
+std::string readFile(const std::string& path);
+void writeFile(const std::string& path, const std::string& content);
+
+}  // namespace dslam::test
+
+/** Skip-or-fail guard for tests that need ../shared data. */
+#define DSLAM_REQUIRE_SHARED(rel)                          \
+  do {                                                     \
+    if (::dslam::test::shared(rel).empty()) GTEST_SKIP(); \
+  } while (0)
