@@ -44,8 +44,8 @@ function(dslam_add_plugin_library)
 endfunction()
 
 # dslam_add_test(NAME <name> SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s])
-# One gtest executable; tests are discovered by ctest. DSLAM_SHARED_DIR and
-# DSLAM_SOURCE_DIR are exported to the test environment.
+# One gtest executable; tests are discovered by ctest. test_support.h gives
+# the paths of the source tree, ../shared and the dslam executable.
 function(dslam_add_test)
   cmake_parse_arguments(A "" "NAME;TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT A_TIMEOUT)
@@ -54,8 +54,12 @@ function(dslam_add_test)
   add_executable(${A_NAME} ${A_SOURCES})
   target_link_libraries(${A_NAME} PRIVATE ${A_DEPS} GTest::gtest GTest::gtest_main dslam_test_support)
   dslam_set_warnings(${A_NAME})
-  gtest_discover_tests(${A_NAME}
-    PROPERTIES TIMEOUT ${A_TIMEOUT} LABELS "${A_LABELS}"
-      ENVIRONMENT "DSLAM_SOURCE_DIR=${PROJECT_SOURCE_DIR};DSLAM_BINARY_DIR=${PROJECT_BINARY_DIR};DSLAM_EXE=$<TARGET_FILE:dslam>"
-    DISCOVERY_TIMEOUT 60)
+  # Paths (source dir, dslam executable) are compiled into dslam_test_support;
+  # no ENVIRONMENT property is needed (its ';' lists do not survive
+  # gtest_discover_tests' PROPERTIES forwarding).
+  set(props TIMEOUT ${A_TIMEOUT})
+  if(A_LABELS)
+    list(APPEND props LABELS "${A_LABELS}")
+  endif()
+  gtest_discover_tests(${A_NAME} PROPERTIES ${props} DISCOVERY_TIMEOUT 60)
 endfunction()

@@ -62,8 +62,7 @@ std::string tempDir(const std::string& tag) {
 std::string dslamExe() {
   const char* e = std::getenv("DSLAM_EXE");
   if (e && *e) return e;
-  const char* b = std::getenv("DSLAM_BINARY_DIR");
-  return (fs::path(b && *b ? b : ".") / "bin" / "dslam").string();
+  return DSLAM_TEST_EXE_PATH;
 }
 
 CmdResult run(const std::string& cmdline) {

@@ -69,7 +69,7 @@ std::vector<ParamSpec> datasetCommonParamSpecs() {
 
 std::vector<ParamSpec> outputParamSpecs() {
   return {
-      P_path("dir", "out", "output folder (created); `dslam run --out` overrides"),
+      P_string("dir", "", "output folder, relative to the working directory ('' = out/<pipeline name>); `dslam run --out` overrides"),
       P_string("trajectory", "trajectory.txt", "camera trajectory file name ('' = none)"),
       P_enum("trajectory_format", "tum", {"tum", "kitti", "euroc"}, "trajectory file format"),
       P_string("keyframe_trajectory", "keyframes.txt", "keyframe trajectory file name ('' = none)"),

@@ -1,5 +1,8 @@
 #include "dslam/core/params.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
 
 #include "dslam/core/error.h"
@@ -28,11 +31,18 @@ const char* toString(ParamType t) {
   return "?";
 }
 
+/** Shortest text that reads back as v (or as the same float, for values that
+ *  came from a float: 1.2f prints as 1.2, not 1.20000004768372). */
 static std::string fmtDouble(double v) {
-  std::ostringstream o;
-  o.precision(15);
-  o << v;
-  std::string s = o.str();
+  const bool is_float = static_cast<double>(static_cast<float>(v)) == v;
+  std::string s;
+  char buf[64];
+  for (int prec = 1; prec <= 17; prec++) {
+    std::snprintf(buf, sizeof(buf), "%.*g", prec, v);
+    const double back = std::strtod(buf, nullptr);
+    if (back == v || (is_float && static_cast<float>(back) == static_cast<float>(v))) break;
+  }
+  s = buf;
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
   return s;
 }
@@ -77,12 +87,14 @@ std::string SourceLocation::str() const {
 
 Params::Params() : y_(std::make_unique<yaml>(yaml::Map())) {}
 Params::~Params() = default;
-Params::Params(const Params& o) : y_(std::make_unique<yaml>(*o.y_)), where_(o.where_), given_(o.given_) {}
+Params::Params(const Params& o)
+    : y_(std::make_unique<yaml>(*o.y_)), where_(o.where_), given_(o.given_), order_(o.order_) {}
 Params& Params::operator=(const Params& o) {
   if (this != &o) {
     y_ = std::make_unique<yaml>(*o.y_);
     where_ = o.where_;
     given_ = o.given_;
+    order_ = o.order_;
   }
   return *this;
 }
@@ -246,6 +258,7 @@ Params Params::resolve(const std::vector<ParamSpec>& specs, const yaml* given, c
   }
   auto& m = p.y_->asMap();
   for (const auto& s : specs) {
+    p.order_.push_back(s.name);
     const node_t* kn = g ? yamlu::findKey(*g, s.name) : nullptr;
     const node_t* vn = g ? yamlu::findValue(*g, s.name) : nullptr;
     if (vn) {
@@ -375,7 +388,67 @@ void Params::set(const std::string& key, const std::string& yaml_value) {
   given_.insert(key);
 }
 
-std::string Params::toYamlText() const { return yamlu::toYamlText(*y_); }
+namespace {
+bool needsQuotes(const std::string& s) {
+  if (s.empty()) return true;
+  if (s.find_first_of(":#{}[],&*!|>'\"%@`") != std::string::npos) return true;
+  if (s.front() == '-' && (s.size() == 1 || s[1] == ' ')) return true;
+  return s.front() == ' ' || s.back() == ' ';
+}
+std::string scalarOut(const node_t& n) {
+  if (n.isNullNode()) return "~";
+  std::string s = yamlu::scalarText(n).value_or("");
+  if (!needsQuotes(s)) return s;
+  std::string q = "'";
+  for (char c : s) q += (c == '\'' ? std::string("''") : std::string(1, c));
+  return q + "'";
+}
+void emit(std::ostream& o, const node_t& n, int indent) {
+  const std::string pad(indent, ' ');
+  if (n.isMap()) {
+    if (n.asMap().empty()) {
+      o << " {}\n";
+      return;
+    }
+    o << "\n";
+    for (const auto& k : yamlu::keysInOrder(n)) {
+      o << pad << scalarOut(node_t(k)) << ":";
+      emit(o, *yamlu::findValue(n, k), indent + 2);
+    }
+  } else if (n.isSequence()) {
+    bool flat = true;
+    for (const auto& e : n.asSequence()) flat &= e.isScalar() || e.isNullNode();
+    if (flat) {
+      o << " [";
+      size_t i = 0;
+      for (const auto& e : n.asSequence()) o << (i++ ? ", " : "") << scalarOut(e);
+      o << "]\n";
+    } else {
+      o << "\n";
+      for (const auto& e : n.asSequence()) {
+        o << pad << "-";
+        emit(o, e, indent + 2);
+      }
+    }
+  } else {
+    o << " " << scalarOut(n) << "\n";
+  }
+}
+}  // namespace
+
+std::string Params::toYamlText() const {
+  std::ostringstream o;
+  std::vector<std::string> ks = order_;
+  for (const auto& k : keys())
+    if (std::find(ks.begin(), ks.end(), k) == ks.end()) ks.push_back(k);
+  for (const auto& k : ks) {
+    const node_t* v = yamlu::findValue(y_->node(), k);
+    if (!v) continue;
+    o << scalarOut(node_t(k)) << ":";
+    emit(o, *v, 2);
+  }
+  return o.str();
+}
 const yaml& Params::asYaml() const { return *y_; }
 
 }  // namespace dslam

@@ -33,7 +33,9 @@ struct StageTimer::Impl {
 };
 
 StageTimer::StageTimer() : impl_(std::make_unique<Impl>()) {}
-StageTimer::~StageTimer() = default;
+StageTimer::~StageTimer() {
+  if (impl_) impl_->tl.clear(true);  // CTimeLogger dumps its report to stdout unless empty
+}
 
 void StageTimer::add(const std::string& stage, int frame, double ms) {
   std::lock_guard<std::mutex> lk(impl_->mtx);

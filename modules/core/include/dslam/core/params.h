@@ -110,6 +110,7 @@ class Params {
   std::unique_ptr<mrpt::containers::yaml> y_;
   SourceLocation where_;
   std::set<std::string> given_;
+  std::vector<std::string> order_;  ///< declaration order (spec order) for printing
   [[noreturn]] void fail(const std::string& key, const std::string& what) const;
 };
 

@@ -1,0 +1,85 @@
+#include <gtest/gtest.h>
+
+#include <mrpt/containers/yaml.h>
+
+#include <cstdlib>
+
+#include "dslam/config/yaml_loader.h"
+#include "dslam/core/error.h"
+#include "dslam/core/paths.h"
+#include "test_support.h"
+
+using namespace dslam;
+
+TEST(YamlLoader, EnvVariablesWithDefaults) {
+  setenv("DSLAM_TEST_VAR", "from_env", 1);
+  unsetenv("DSLAM_TEST_UNSET");
+  const std::string t = config::expandVariables(
+      "a: ${DSLAM_TEST_VAR}\nb: ${DSLAM_TEST_UNSET|fallback}\nc: x${DSLAM_TEST_VAR|d}y\n# ${NOT_EXPANDED}\n", "f.yaml");
+  EXPECT_EQ(t, "a: from_env\nb: fallback\nc: xfrom_envy\n# ${NOT_EXPANDED}\n");
+}
+
+TEST(YamlLoader, UnsetVariableWithoutDefaultNamesFileAndLine) {
+  unsetenv("DSLAM_TEST_UNSET");
+  try {
+    config::expandVariables("a: 1\nb: ${DSLAM_TEST_UNSET}\n", "cfg.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("cfg.yaml:2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("DSLAM_TEST_UNSET"), std::string::npos) << e.what();
+  }
+}
+
+TEST(YamlLoader, SharedDirBuiltinFollowsEnvironment) {
+  setenv("DSLAM_SHARED_DIR", "/some/where", 1);
+  EXPECT_EQ(config::expandVariables("p: ${DSLAM_SHARED_DIR}/x\n", "f"), "p: /some/where/x\n");
+  unsetenv("DSLAM_SHARED_DIR");
+  EXPECT_EQ(config::expandVariables("p: ${DSLAM_SHARED_DIR}\n", "f"), "p: " + sharedDir() + "\n");
+}
+
+TEST(YamlLoader, IncludesResolveRelativeAndRecursively) {
+  const std::string d = test::tempDir("yaml");
+  test::writeFile(d + "/main.yaml", "camera: $include{sub/cam.yaml}\nlist:\n  - $include{sub/item.yaml}\n");
+  test::writeFile(d + "/sub/cam.yaml", "fx: 500\nextra: $include{more.yaml}\n");
+  test::writeFile(d + "/sub/more.yaml", "deep: true\n");
+  test::writeFile(d + "/sub/item.yaml", "name: it\n");
+  const auto ly = config::loadYamlFile(d + "/main.yaml");
+  const auto& r = *ly.root;
+  EXPECT_EQ(r["camera"]["fx"].as<int>(), 500);
+  EXPECT_EQ(r["camera"]["extra"]["deep"].as<std::string>(), "true");
+  EXPECT_EQ(r["list"].asSequence().at(0).asMap().begin()->second.as<std::string>(), "it");
+  EXPECT_EQ(ly.fileFor("camera.fx"), d + "/sub/cam.yaml");
+  EXPECT_EQ(ly.fileFor("camera.extra.deep"), d + "/sub/more.yaml");
+  EXPECT_EQ(ly.fileFor("other"), d + "/main.yaml");
+}
+
+TEST(YamlLoader, IncludeCycleAndMissingIncludeAreErrors) {
+  const std::string d = test::tempDir("yaml");
+  test::writeFile(d + "/a.yaml", "x: $include{b.yaml}\n");
+  test::writeFile(d + "/b.yaml", "y: $include{a.yaml}\n");
+  try {
+    config::loadYamlFile(d + "/a.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("include cycle"), std::string::npos) << e.what();
+  }
+  test::writeFile(d + "/c.yaml", "a: 1\nz: $include{nope.yaml}\n");
+  try {
+    config::loadYamlFile(d + "/c.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("c.yaml:2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nope.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(config::loadYamlFile(d + "/missing.yaml"), DataError);
+}
+
+TEST(YamlLoader, NoShellExecution) {
+  // $(...) and backticks are plain text: nothing is executed.
+  const std::string d = test::tempDir("yaml");
+  const std::string marker = d + "/executed";
+  test::writeFile(d + "/a.yaml", "x: \"$(touch " + marker + ")\"\ny: \"`touch " + marker + "`\"\n");
+  const auto ly = config::loadYamlFile(d + "/a.yaml");
+  EXPECT_FALSE(fileExists(marker));
+  EXPECT_EQ((*ly.root)["x"].as<std::string>(), "$(touch " + marker + ")");
+}
