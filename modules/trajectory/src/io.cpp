@@ -135,9 +135,11 @@ Trajectory readKitti(const std::string& path, const std::string& times_path, dou
   std::vector<double> times;
   if (!times_path.empty()) {
     for (const auto& l : readLines(times_path)) times.push_back(num(times_path, l, 0));
+    if (times.empty()) throw DataError("KITTI times file has no times: " + times_path);
   }
   Trajectory t;
   size_t i = 0;
+  bool used_times = false;
   for (const auto& l : readLines(path)) {
     need(path, l, 12, "3x4 row-major pose");
     double stamp;
@@ -149,6 +151,7 @@ Trajectory readKitti(const std::string& path, const std::string& times_path, dou
       if (i >= times.size())
         throw DataError(times_path + ": has " + std::to_string(times.size()) + " times but " + path + " has more poses");
       stamp = times[i];
+      used_times = true;
     } else {
       stamp = static_cast<double>(i) / rate;
     }
@@ -156,6 +159,9 @@ Trajectory readKitti(const std::string& path, const std::string& times_path, dou
     t.push_back(stamp, from3x4(path, l, off));
     i++;
   }
+  if (used_times && i != times.size())
+    throw DataError(times_path + ": has " + std::to_string(times.size()) + " times but " + path + " has " +
+                    std::to_string(i) + " poses");
   return t;
 }
 
