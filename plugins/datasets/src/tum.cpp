@@ -4,13 +4,16 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 
+#include "common.h"
+#include "dslam/config/camera_yaml.h"
 #include "dslam/core/camera_presets.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/yaml_util.h"
+#include "dslam/trajectory/associate.h"
 #include "dslam/trajectory/io.h"
 
 IMPLEMENTS_MRPT_OBJECT(TumDataset, DatasetSource, dslam)
@@ -21,65 +24,44 @@ namespace fs = std::filesystem;
 namespace dslam {
 
 static const char* kTumLayout =
-    "expected a TUM RGB-D folder: rgb.txt and depth.txt (\"timestamp path\" lines) or associations.txt, "
-    "rgb/ and depth/ images, optional groundtruth.txt";
+    "expected a TUM RGB-D folder: rgb.txt and depth.txt (\"timestamp path\" lines) or associations.txt "
+    "(\"t_rgb rgb t_depth depth\"), rgb/ and depth/ images, optional groundtruth.txt";
 
 std::vector<TumEntry> readTumList(const std::string& file) {
-  std::ifstream f(file);
-  if (!f) throw DataError("cannot open " + file + " (" + kTumLayout + ")");
   std::vector<TumEntry> out;
-  std::string s;
-  int n = 0;
-  while (std::getline(f, s)) {
-    n++;
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    const size_t p = s.find_first_not_of(" \t");
-    if (p == std::string::npos || s[p] == '#') continue;
-    std::istringstream in(s);
-    std::string ts, path;
-    in >> ts >> path;
-    auto t = yamlu::parseDouble(ts);
-    if (!t || path.empty())
-      throw DataError(file + ":" + std::to_string(n) + ": expected \"timestamp path\", got '" + s + "'");
+  for (const auto& l : ds::readDataLines(file, kTumLayout)) {
+    const auto f = ds::splitFields(l.text);
+    const auto t = f.empty() ? std::nullopt : yamlu::parseDouble(f[0]);
+    if (f.size() < 2 || !t)
+      throw DataError(file + ":" + std::to_string(l.lineno) + ": expected \"timestamp path\", got '" + l.text + "'");
     if (!out.empty() && *t <= out.back().stamp)
-      throw DataError(file + ":" + std::to_string(n) + ": timestamps must increase (" + ts + " after " +
-                      std::to_string(out.back().stamp) + ")");
-    out.push_back({*t, path});
+      throw DataError(file + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + f[0] + " after " +
+                      ds::fmtStamp(out.back().stamp) + ")");
+    out.push_back({*t, f[1]});
+  }
+  return out;
+}
+
+std::vector<TumAssociation> readTumAssociations(const std::string& file) {
+  std::vector<TumAssociation> out;
+  for (const auto& l : ds::readDataLines(file, kTumLayout)) {
+    const auto f = ds::splitFields(l.text);
+    const auto ta = f.size() >= 4 ? yamlu::parseDouble(f[0]) : std::nullopt;
+    const auto tb = f.size() >= 4 ? yamlu::parseDouble(f[2]) : std::nullopt;
+    if (!ta || !tb)
+      throw DataError(file + ":" + std::to_string(l.lineno) + ": expected \"t_rgb rgb t_depth depth\", got '" +
+                      l.text + "'");
+    if (!out.empty() && *ta <= out.back().t_rgb)
+      throw DataError(file + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + f[0] + " after " +
+                      ds::fmtStamp(out.back().t_rgb) + ")");
+    out.push_back({*ta, *tb, f[1], f[3]});
   }
   return out;
 }
 
 std::vector<std::pair<size_t, size_t>> associateStamps(const std::vector<double>& a, const std::vector<double>& b,
                                                        double max_dt) {
-  // Candidate pairs within max_dt (both lists sorted: two-pointer window).
-  struct Cand {
-    double d;
-    size_t i, j;
-  };
-  std::vector<Cand> cands;
-  size_t lo = 0;
-  for (size_t i = 0; i < a.size(); i++) {
-    while (lo < b.size() && b[lo] < a[i] - max_dt) lo++;
-    for (size_t j = lo; j < b.size() && b[j] < a[i] + max_dt; j++) {
-      const double d = std::abs(a[i] - b[j]);
-      if (d < max_dt) cands.push_back({d, i, j});
-    }
-  }
-  // associate.py sorts (diff, a, b) tuples and takes greedily.
-  std::sort(cands.begin(), cands.end(), [&](const Cand& x, const Cand& y) {
-    if (x.d != y.d) return x.d < y.d;
-    if (a[x.i] != a[y.i]) return a[x.i] < a[y.i];
-    return b[x.j] < b[y.j];
-  });
-  std::vector<char> ua(a.size(), 0), ub(b.size(), 0);
-  std::vector<std::pair<size_t, size_t>> out;
-  for (const auto& c : cands) {
-    if (ua[c.i] || ub[c.j]) continue;
-    ua[c.i] = ub[c.j] = 1;
-    out.emplace_back(c.i, c.j);
-  }
-  std::sort(out.begin(), out.end());
-  return out;
+  return traj::associate(a, b, max_dt);
 }
 
 std::string TumDataset::description() const {
@@ -94,11 +76,13 @@ std::vector<ParamSpec> TumDataset::paramSpecs() const {
       P_string("associations", "",
                "association file (t_rgb rgb t_depth depth) relative to the folder; '' = associations.txt if "
                "present, else associate rgb.txt and depth.txt"),
-      P_double("max_dt", 0.02, "max |t_rgb - t_depth| when associating, seconds", 0),
-      P_enum("preset", "auto", presets, "camera preset; auto: from 'freiburgN' in the folder name"),
-      P_double("depth_factor", 5000, "raw depth units per metre", 0),
-      P_bool("load_depth", true, "load depth images"),
-      P_string("groundtruth", "groundtruth.txt", "ground-truth file relative to the folder ('' = none)"),
+      P_double("max_dt", 0.02, "max |t_rgb - t_depth| when associating, seconds (TUM associate.py)", 1e-9),
+      P_enum("preset", "auto", presets,
+             "camera preset; auto: <folder>/camera.yaml if present, else from 'freiburgN'/'bonn' in the folder name"),
+      P_string("camera_file", "", "camera YAML file relative to the folder (overrides preset); '' = none"),
+      P_double("depth_factor", 5000, "raw depth units per metre (default: the camera file's, else 5000)", 1e-9),
+      P_bool("load_depth", true, "load depth images (false: monocular frames)"),
+      P_string("groundtruth", "groundtruth.txt", "ground-truth file (TUM format, T_wc) relative to the folder ('' = none)"),
   };
 }
 
@@ -106,34 +90,23 @@ void TumDataset::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
   root_ = p.getString("path");
   requireDir(root_, "TUM dataset folder", kTumLayout);
-  depth_factor_ = p.getDouble("depth_factor");
   frames_.clear();
+  const bool load_depth = p.getBool("load_depth");
   std::string assoc = p.getString("associations");
   if (assoc.empty() && fileExists(root_ + "/associations.txt")) assoc = "associations.txt";
   if (!assoc.empty()) {
     const std::string af = resolvePath(assoc, root_);
-    std::ifstream f(af);
-    if (!f) throw DataError("association file not found: " + af + " (" + kTumLayout + ")");
-    std::string s;
-    int n = 0;
-    while (std::getline(f, s)) {
-      n++;
-      if (!s.empty() && s.back() == '\r') s.pop_back();
-      const size_t q = s.find_first_not_of(" \t");
-      if (q == std::string::npos || s[q] == '#') continue;
-      std::istringstream in(s);
-      std::string a, b, c, d;
-      in >> a >> b >> c >> d;
-      auto ta = yamlu::parseDouble(a), tc = yamlu::parseDouble(c);
-      if (!ta || !tc || b.empty() || d.empty())
-        throw DataError(af + ":" + std::to_string(n) + ": expected \"t_rgb rgb t_depth depth\", got '" + s + "'");
-      if (!frames_.empty() && *ta <= frames_.back().t_rgb)
-        throw DataError(af + ":" + std::to_string(n) + ": timestamps must increase");
-      frames_.push_back({*ta, *tc, b, d});
-    }
+    requireFile(af, "TUM association file", kTumLayout);
+    for (auto& a : readTumAssociations(af)) frames_.push_back({a.t_rgb, a.t_depth, a.rgb, a.depth});
+    if (!load_depth)
+      for (auto& f : frames_) {
+        f.t_depth = -1;
+        f.depth.clear();
+      }
   } else {
+    requireFile(root_ + "/rgb.txt", "TUM rgb.txt", kTumLayout);
     const auto rgb = readTumList(root_ + "/rgb.txt");
-    if (p.getBool("load_depth") && fileExists(root_ + "/depth.txt")) {
+    if (load_depth && fileExists(root_ + "/depth.txt")) {
       const auto depth = readTumList(root_ + "/depth.txt");
       std::vector<double> ta, tb;
       for (auto& e : rgb) ta.push_back(e.stamp);
@@ -148,18 +121,41 @@ void TumDataset::configure(const Params& p, const PluginContext& ctx) {
     }
   }
   if (frames_.empty()) throw DataError(root_ + ": no frames (" + kTumLayout + ")");
+  has_depth_ = !frames_.front().depth.empty();
 
+  // Camera.
   std::string preset = p.getString("preset");
-  if (preset == "auto") {
-    const std::string name = fs::weakly_canonical(root_).filename().string();
-    preset = defaultPreset();
-    if (name.find("freiburg1") != std::string::npos) preset = "tum_fr1";
-    if (name.find("freiburg2") != std::string::npos) preset = "tum_fr2";
-    if (name.find("freiburg3") != std::string::npos) preset = "tum_fr3";
-    if (name.find("bonn") != std::string::npos) preset = "bonn";
+  const std::string cam_file = p.getString("camera_file");
+  bool from_file = false;
+  if (!cam_file.empty()) {
+    const std::string cf = resolvePath(cam_file, root_);
+    requireFile(cf, "camera file", "parameter camera_file of the TUM reader");
+    camera_ = config::loadCameraFile(cf);
+    camera_source_ = cf;
+    from_file = true;
+  } else if (preset == "auto" && fileExists(root_ + "/camera.yaml")) {
+    camera_ = config::loadCameraFile(root_ + "/camera.yaml");
+    camera_source_ = root_ + "/camera.yaml";
+    from_file = true;
+  } else {
+    if (preset == "auto") {
+      const std::string name = fs::weakly_canonical(root_).filename().string();
+      preset = defaultPreset();
+      if (name.find("freiburg1") != std::string::npos) preset = "tum_fr1";
+      if (name.find("freiburg2") != std::string::npos) preset = "tum_fr2";
+      if (name.find("freiburg3") != std::string::npos) preset = "tum_fr3";
+      if (name.find("bonn") != std::string::npos) preset = "bonn";
+    }
+    camera_ = cameraPreset(preset);
+    camera_source_ = "preset " + preset;
   }
-  camera_ = cameraPreset(preset);
-  if (camera_) camera_->depth_factor = depth_factor_;
+  depth_factor_ = p.getDouble("depth_factor");
+  if (from_file && !p.isGiven("depth_factor") && camera_ && camera_->depth_factor > 0)
+    depth_factor_ = camera_->depth_factor;
+  if (camera_) {
+    camera_->depth_factor = depth_factor_;
+    if (!has_depth_) camera_->sensor = SensorType::Monocular;
+  }
 
   gt_.clear();
   const std::string g = p.getString("groundtruth");
@@ -167,6 +163,15 @@ void TumDataset::configure(const Params& p, const PluginContext& ctx) {
 }
 
 double TumDataset::timestamp(size_t i) const { return frames_.at(i).t_rgb; }
+
+std::string TumDataset::rgbPath(size_t i) const { return resolvePath(frames_.at(i).rgb, root_); }
+
+std::string TumDataset::depthPath(size_t i) const {
+  const auto& d = frames_.at(i).depth;
+  return d.empty() ? std::string() : resolvePath(d, root_);
+}
+
+double TumDataset::depthTimestamp(size_t i) const { return frames_.at(i).t_depth; }
 
 SensorFrame TumDataset::read(size_t i) {
   if (i >= frames_.size())
@@ -176,22 +181,19 @@ SensorFrame TumDataset::read(size_t i) {
   f.index = static_cast<int>(i);
   f.timestamp = it.t_rgb;
   f.image_path = resolvePath(it.rgb, root_);
-  f.image = cv::imread(f.image_path, cv::IMREAD_UNCHANGED);
-  if (f.image.empty())
-    throw DataError("frame " + std::to_string(i) + ": cannot read image " + f.image_path +
-                    (fileExists(f.image_path) ? " (corrupt or unsupported)" : " (missing)"));
+  f.image = ds::readImage(f.image_path, i, "image", cv::IMREAD_UNCHANGED);
   if (!it.depth.empty()) {
     f.depth_path = resolvePath(it.depth, root_);
-    cv::Mat raw = cv::imread(f.depth_path, cv::IMREAD_ANYDEPTH);
-    if (raw.empty())
-      throw DataError("frame " + std::to_string(i) + ": cannot read depth " + f.depth_path +
-                      (fileExists(f.depth_path) ? " (corrupt or unsupported)" : " (missing)"));
+    cv::Mat raw = ds::readImage(f.depth_path, i, "depth image", cv::IMREAD_ANYDEPTH);
     if (raw.type() != CV_16UC1)
       throw DataError("frame " + std::to_string(i) + ": depth image " + f.depth_path + " is not 16-bit single channel");
     if (raw.size() != f.image.size())
-      throw DataError("frame " + std::to_string(i) + ": depth " + f.depth_path + " size differs from the RGB image");
+      throw DataError("frame " + std::to_string(i) + ": depth " + f.depth_path + " size " +
+                      std::to_string(raw.cols) + "x" + std::to_string(raw.rows) + " differs from the RGB image's " +
+                      std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows));
     raw.convertTo(f.depth, CV_32F, 1.0 / depth_factor_);
   }
+  f.gt_T_wc = ds::nearestPose(gt_, it.t_rgb);
   return f;
 }
 

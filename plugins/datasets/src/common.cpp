@@ -1,0 +1,104 @@
+#include "common.h"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "dslam/core/error.h"
+#include "dslam/core/paths.h"
+
+namespace fs = std::filesystem;
+
+namespace dslam::ds {
+
+cv::Mat readImage(const std::string& path, size_t frame, const std::string& what, int flags) {
+  cv::Mat m;
+  if (fileExists(path)) {
+    try {
+      m = cv::imread(path, flags);
+    } catch (const cv::Exception& e) {
+      throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path + " (" + e.what() + ")");
+    }
+    if (m.empty())
+      throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path +
+                      " (corrupt or unsupported image)");
+    return m;
+  }
+  throw DataError("frame " + std::to_string(frame) + ": " + what + " " + path + " is missing");
+}
+
+std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt) {
+  if (gt.empty()) return std::nullopt;
+  auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), t);
+  size_t best = gt.size();
+  double bd = max_dt;
+  for (auto c : {it, it == gt.stamps.begin() ? it : it - 1}) {
+    if (c == gt.stamps.end()) continue;
+    const double d = std::abs(*c - t);
+    if (d < bd) {
+      bd = d;
+      best = static_cast<size_t>(c - gt.stamps.begin());
+    }
+  }
+  if (best == gt.size()) return std::nullopt;
+  return gt.poses[best];
+}
+
+void requireIncreasing(const std::vector<double>& s, const std::string& where) {
+  for (size_t i = 1; i < s.size(); i++)
+    if (!(s[i] > s[i - 1]))
+      throw DataError(where + ": timestamps must increase, but frame " + std::to_string(i) + " has " + fmtStamp(s[i]) +
+                      " after " + fmtStamp(s[i - 1]) + " (frame " + std::to_string(i - 1) + ")");
+}
+
+std::vector<TextLine> readDataLines(const std::string& file, const std::string& hint) {
+  std::ifstream f(file);
+  if (!f) throw DataError("cannot open " + file + (hint.empty() ? "" : " (" + hint + ")"));
+  std::vector<TextLine> out;
+  std::string s;
+  int n = 0;
+  while (std::getline(f, s)) {
+    n++;
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    const size_t p = s.find_first_not_of(" \t");
+    if (p == std::string::npos || s[p] == '#') continue;
+    out.push_back({n, s});
+  }
+  return out;
+}
+
+std::vector<std::string> splitFields(const std::string& s, bool commas) {
+  std::vector<std::string> out;
+  std::string tok;
+  for (char c : s) {
+    if (c == ' ' || c == '\t' || (commas && c == ',')) {
+      if (!tok.empty()) out.push_back(tok);
+      tok.clear();
+    } else {
+      tok += c;
+    }
+  }
+  if (!tok.empty()) out.push_back(tok);
+  return out;
+}
+
+std::vector<std::string> listFiles(const std::string& dir, const std::string& ext) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ext) out.push_back(e.path().filename().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string fmtStamp(double t) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.6f", t);
+  return b;
+}
+
+}  // namespace dslam::ds

@@ -1,0 +1,514 @@
+#include "dslam/plugins/datasets/rawlog.h"
+
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/io/lazy_load_path.h>
+#include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/obs/CObservationStereoImages.h>
+#include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/poses/CPose3D.h>
+#include <mrpt/poses/CPose3DQuat.h>
+#include <mrpt/serialization/CArchive.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "common.h"
+#include "dslam/core/error.h"
+#include "dslam/core/log.h"
+#include "dslam/core/paths.h"
+#include "dslam/trajectory/io.h"
+#include "rawlog_util.h"
+
+IMPLEMENTS_MRPT_OBJECT(RawlogDataset, DatasetSource, dslam)
+
+namespace fs = std::filesystem;
+using namespace mrpt::obs;
+
+namespace dslam {
+
+static const char* kRawlogLayout =
+    "expected an MRPT rawlog file (observations or sensory-frame format, optionally gzip-compressed) with "
+    "CObservation3DRangeScan, CObservationImage or CObservationStereoImages observations; external images in "
+    "<rawlog name>_Images/";
+
+namespace rawlog {
+
+PinholeCamera fromTCamera(const mrpt::img::TCamera& c, const std::string& what) {
+  if (c.distortion == mrpt::img::DistortionModel::kannala_brandt)
+    throw DataError(what + ": Kannala-Brandt (fisheye) distortion is not supported");
+  PinholeCamera p;
+  p.width = static_cast<int>(c.ncols);
+  p.height = static_cast<int>(c.nrows);
+  p.fx = c.fx();
+  p.fy = c.fy();
+  p.cx = c.cx();
+  p.cy = c.cy();
+  if (c.distortion == mrpt::img::DistortionModel::plumb_bob)
+    for (size_t k = 0; k < 5; k++) p.dist[k] = c.dist[k];
+  return p;
+}
+
+mrpt::img::TCamera toTCamera(const PinholeCamera& p, const std::string& name) {
+  mrpt::img::TCamera c;
+  c.cameraName = name;
+  c.ncols = static_cast<uint32_t>(p.width);
+  c.nrows = static_cast<uint32_t>(p.height);
+  c.setIntrinsicParamsFromValues(p.fx, p.fy, p.cx, p.cy);
+  c.distortion = p.hasDistortion() ? mrpt::img::DistortionModel::plumb_bob : mrpt::img::DistortionModel::none;
+  c.dist.fill(0);
+  for (size_t k = 0; k < 5; k++) c.dist[k] = p.dist[k];
+  return c;
+}
+
+SE3 toSE3(const mrpt::poses::CPose3D& p) {
+  const auto M = p.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
+  return SE3(Eigen::Matrix4d(M.asEigen()));
+}
+
+/** Pose of the depth camera's optical frame (z forward) in MRPT's
+ *  X-forward range-scan frame: the pure rotation (0,0,0,-90,0,-90). */
+static const mrpt::poses::CPose3D& opticalInScanFrame() {
+  static const mrpt::poses::CPose3D R0(0, 0, 0, mrpt::DEG2RAD(-90.0), 0, mrpt::DEG2RAD(-90.0));
+  return R0;
+}
+
+SE3 intensityFromDepth(const CObservation3DRangeScan& o) {
+  // MRPT projects a point p (X-forward depth frame) into the intensity
+  // camera as relativePoseIntensityWRTDepth^-1 * p; p = R0 * p_optical.
+  return toSE3(o.relativePoseIntensityWRTDepth).inverse() * toSE3(opticalInScanFrame());
+}
+
+std::string describeObs(const CObservation& o) {
+  return "observation '" + o.sensorLabel + "' (" + o.GetRuntimeClass()->className + ")";
+}
+
+cv::Mat rangeToMat(const mrpt::math::CMatrix_u16& r) {
+  cv::Mat m(static_cast<int>(r.rows()), static_cast<int>(r.cols()), CV_16UC1);
+  for (int y = 0; y < m.rows; y++) {
+    auto* row = m.ptr<uint16_t>(y);
+    for (int x = 0; x < m.cols; x++) row[x] = r(y, x);
+  }
+  return m;
+}
+
+cv::Mat registerDepth(const cv::Mat& depth, const PinholeCamera& kd, const PinholeCamera& ki, const SE3& T_i_d) {
+  cv::Mat out(ki.height, ki.width, CV_32F, cv::Scalar(0));
+  const Eigen::Matrix3f R = T_i_d.rotation().cast<float>();
+  const Eigen::Vector3f t = T_i_d.translation().cast<float>();
+  const float fxd = static_cast<float>(kd.fx), fyd = static_cast<float>(kd.fy);
+  const float cxd = static_cast<float>(kd.cx), cyd = static_cast<float>(kd.cy);
+  const float fxi = static_cast<float>(ki.fx), fyi = static_cast<float>(ki.fy);
+  const float cxi = static_cast<float>(ki.cx), cyi = static_cast<float>(ki.cy);
+  auto project = [&](float u, float v, float z, float& pu, float& pv, float& pz) {
+    const Eigen::Vector3f P((u - cxd) / fxd * z, (v - cyd) / fyd * z, z);
+    const Eigen::Vector3f Q = R * P + t;
+    pz = Q.z();
+    if (pz <= 0) return false;
+    pu = fxi * Q.x() / pz + cxi;
+    pv = fyi * Q.y() / pz + cyi;
+    return true;
+  };
+  for (int v = 0; v < depth.rows; v++) {
+    const float* row = depth.ptr<float>(v);
+    for (int u = 0; u < depth.cols; u++) {
+      const float z = row[u];
+      if (!(z > 0)) continue;
+      float cu, cv_, cz, u0, v0, z0, u1, v1, z1;
+      if (!project(static_cast<float>(u), static_cast<float>(v), z, cu, cv_, cz)) continue;
+      // Footprint of the source pixel in the target image (librealsense's
+      // align: the projected corners, rounded, inclusive).
+      if (!project(u - 0.5f, v - 0.5f, z, u0, v0, z0) || !project(u + 0.5f, v + 0.5f, z, u1, v1, z1)) continue;
+      int x0 = static_cast<int>(std::lround(std::min(u0, u1))), x1 = static_cast<int>(std::lround(std::max(u0, u1)));
+      int y0 = static_cast<int>(std::lround(std::min(v0, v1))), y1 = static_cast<int>(std::lround(std::max(v0, v1)));
+      if (x1 < 0 || y1 < 0 || x0 >= out.cols || y0 >= out.rows) continue;
+      x0 = std::max(x0, 0);
+      y0 = std::max(y0, 0);
+      x1 = std::min(x1, out.cols - 1);
+      y1 = std::min(y1, out.rows - 1);
+      for (int y = y0; y <= y1; y++) {
+        float* o = out.ptr<float>(y);
+        for (int x = x0; x <= x1; x++)
+          if (o[x] == 0 || cz < o[x]) o[x] = cz;
+      }
+    }
+  }
+  return out;
+}
+
+bool needsRegistration(const CObservation3DRangeScan& o) {
+  const auto& a = o.cameraParams;
+  const auto& b = o.cameraParamsIntensity;
+  const auto same = [](double x, double y) { return std::abs(x - y) <= 1e-6 * std::max(1.0, std::abs(x)); };
+  const bool same_k = same(a.fx(), b.fx()) && same(a.fy(), b.fy()) && same(a.cx(), b.cx()) && same(a.cy(), b.cy());
+  const bool same_size = o.rangeImage.cols() == static_cast<int>(b.ncols) && o.rangeImage.rows() == static_cast<int>(b.nrows);
+  return !(same_k && same_size && o.doDepthAndIntensityCamerasCoincide());
+}
+
+}  // namespace rawlog
+
+// ---------------------------------------------------------------------------
+
+namespace {
+
+enum class Kind { None, RGBD, Mono, Stereo };
+
+Kind kindOf(const CObservation& o) {
+  if (dynamic_cast<const CObservation3DRangeScan*>(&o)) return Kind::RGBD;
+  if (dynamic_cast<const CObservationStereoImages*>(&o)) return Kind::Stereo;
+  if (dynamic_cast<const CObservationImage*>(&o)) return Kind::Mono;
+  return Kind::None;
+}
+
+struct FrameRef {
+  size_t obj = 0;  ///< top-level object index in the file
+  int sub = -1;    ///< index inside a CSensoryFrame, -1 = the object itself
+  double t = 0;
+};
+
+struct LabelScan {
+  Kind kind = Kind::None;
+  std::string cls;
+  std::vector<FrameRef> frames;
+  CameraModel camera;
+  bool needs_registration = false;
+};
+
+}  // namespace
+
+struct RawlogDataset::Impl {
+  std::string file, images_dir, label;
+  bool sf_format = false, register_depth = true, do_register = false;
+  size_t n_objects = 0;
+  std::map<std::string, LabelScan> scans;
+  LabelScan* sel = nullptr;
+  // Streaming state.
+  std::unique_ptr<mrpt::io::CFileGZInputStream> in;
+  size_t next_obj = 0;
+  mrpt::serialization::CSerializable::Ptr cached;
+  size_t cached_idx = static_cast<size_t>(-1);
+
+  void open() {
+    in = std::make_unique<mrpt::io::CFileGZInputStream>();
+    if (!in->open(file)) throw DataError("cannot open rawlog " + file + " (" + kRawlogLayout + ")");
+    next_obj = 0;
+    cached.reset();
+    cached_idx = static_cast<size_t>(-1);
+  }
+
+  /** Next top-level object or nullptr at EOF. */
+  mrpt::serialization::CSerializable::Ptr readNext() {
+    auto ar = mrpt::serialization::archiveFrom(*in);
+    try {
+      auto o = ar.ReadObject();
+      next_obj++;
+      return o;
+    } catch (const mrpt::serialization::CExceptionEOF&) {
+      return nullptr;
+    } catch (const std::exception& e) {
+      std::string msg = e.what();
+      if (msg.find("EOF") != std::string::npos && msg.find("Cannot read object") != std::string::npos) return nullptr;
+      const auto nl = msg.find('\n', msg.find("Message:") != std::string::npos ? msg.find("Message:") : 0);
+      throw DataError("rawlog " + file + ": cannot read object " + std::to_string(next_obj) +
+                      " (corrupt or truncated file): " + msg.substr(0, std::min<size_t>(nl, 300)));
+    }
+  }
+
+  mrpt::serialization::CSerializable::Ptr object(size_t idx) {
+    if (cached && cached_idx == idx) return cached;
+    if (!in || idx < next_obj) open();
+    while (next_obj <= idx) {
+      auto o = readNext();
+      if (!o) throw DataError("rawlog " + file + ": ended before object " + std::to_string(idx) + " (file changed?)");
+      cached = o;
+      cached_idx = next_obj - 1;
+    }
+    return cached;
+  }
+
+  CObservation::Ptr observation(const FrameRef& r) {
+    auto o = object(r.obj);
+    if (r.sub >= 0) {
+      auto sf = std::dynamic_pointer_cast<CSensoryFrame>(o);
+      if (!sf || static_cast<size_t>(r.sub) >= sf->size())
+        throw DataError("rawlog " + file + ": object " + std::to_string(r.obj) + " is not the expected sensory frame");
+      return sf->getObservationByIndex(r.sub);
+    }
+    auto obs = std::dynamic_pointer_cast<CObservation>(o);
+    if (!obs) throw DataError("rawlog " + file + ": object " + std::to_string(r.obj) + " is not an observation");
+    return obs;
+  }
+};
+
+RawlogDataset::RawlogDataset() : impl_(std::make_shared<Impl>()) {}
+
+std::string RawlogDataset::description() const {
+  return "MRPT rawlog: CObservation3DRangeScan (RGB-D), CObservationImage (monocular) or CObservationStereoImages "
+         "(stereo) of one sensor label";
+}
+
+std::vector<ParamSpec> RawlogDataset::paramSpecs() const {
+  return {
+      P_required("path", ParamType::Path, "the .rawlog file"),
+      P_string("sensor_label", "", "sensor label to read; '' = the only camera-like label in the file"),
+      P_string("images_dir", "", "folder of externally stored images; '' = <rawlog without extension>_Images"),
+      P_bool("register_depth", true,
+             "RGB-D: reproject depth into the intensity camera when the two cameras differ"),
+      P_string("groundtruth", "", "ground-truth trajectory (TUM/KITTI/EuRoC file, T_wc) relative to the rawlog folder; '' = none"),
+  };
+}
+
+size_t RawlogDataset::size() const { return impl_->sel ? impl_->sel->frames.size() : 0; }
+double RawlogDataset::timestamp(size_t i) const { return impl_->sel->frames.at(i).t; }
+std::string RawlogDataset::root() const { return impl_->file; }
+std::string RawlogDataset::sensorLabel() const { return impl_->label; }
+bool RawlogDataset::sensoryFrameFormat() const { return impl_->sf_format; }
+size_t RawlogDataset::objectCount() const { return impl_->n_objects; }
+bool RawlogDataset::registersDepth() const { return impl_->do_register; }
+std::string RawlogDataset::imagesDir() const { return impl_->images_dir; }
+
+SensorType RawlogDataset::sensor() const {
+  if (!impl_->sel) return SensorType::RGBD;
+  return impl_->sel->camera.sensor;
+}
+
+std::optional<CameraModel> RawlogDataset::camera() const {
+  if (!impl_->sel) return std::nullopt;
+  return impl_->sel->camera;
+}
+
+std::vector<RawlogDataset::LabelInfo> RawlogDataset::labels() const {
+  std::vector<LabelInfo> out;
+  for (const auto& [l, s] : impl_->scans) out.push_back({l, s.cls, s.frames.size()});
+  return out;
+}
+
+void RawlogDataset::configure(const Params& p, const PluginContext& ctx) {
+  Plugin::configure(p, ctx);
+  auto& I = *impl_;
+  I = Impl();
+  I.file = p.getString("path");
+  if (dirExists(I.file)) throw DataError("rawlog path is a folder, not a file: " + I.file + " (" + kRawlogLayout + ")");
+  requireFile(I.file, "rawlog file", kRawlogLayout);
+  I.images_dir = p.getString("images_dir");
+  if (I.images_dir.empty()) {
+    fs::path f(I.file);
+    I.images_dir = (f.parent_path() / (f.stem().string() + "_Images")).string();
+  } else {
+    I.images_dir = resolvePath(I.images_dir, fs::path(I.file).parent_path().string());
+  }
+  I.register_depth = p.getBool("register_depth");
+
+  // One pass over the file: frame indices per label, camera of the first observation.
+  std::map<std::string, size_t> other;  // class counts of unsupported objects
+  I.open();
+  auto consider = [&](const CObservation::Ptr& o, size_t obj, int sub) {
+    const Kind k = kindOf(*o);
+    if (k == Kind::None) {
+      other[o->GetRuntimeClass()->className]++;
+      return;
+    }
+    LabelScan& s = I.scans[o->sensorLabel];
+    if (s.kind == Kind::None) {
+      s.kind = k;
+      s.cls = o->GetRuntimeClass()->className;
+      CameraModel& c = s.camera;
+      c.name = "rawlog:" + o->sensorLabel;
+      const std::string what = "rawlog " + I.file + ": " + rawlog::describeObs(*o);
+      if (k == Kind::RGBD) {
+        const auto& r = dynamic_cast<const CObservation3DRangeScan&>(*o);
+        c.sensor = SensorType::RGBD;
+        c.left = rawlog::fromTCamera(r.cameraParamsIntensity, what);
+        const double f = 1.0 / static_cast<double>(r.rangeUnits);
+        c.depth_factor = std::abs(f - std::round(f)) < 1e-3 * f ? std::round(f) : f;
+        c.baseline = 40.0 / c.left.fx;  // virtual stereo as ORB-SLAM2's TUM yamls (bf = 40)
+        c.depth_threshold = 40.0;
+        s.needs_registration = rawlog::needsRegistration(r);
+      } else if (k == Kind::Mono) {
+        const auto& m = dynamic_cast<const CObservationImage&>(*o);
+        c.sensor = SensorType::Monocular;
+        c.left = rawlog::fromTCamera(m.cameraParams, what);
+      } else {
+        const auto& st = dynamic_cast<const CObservationStereoImages&>(*o);
+        c.sensor = st.hasImageRight ? SensorType::Stereo : SensorType::Monocular;
+        c.left = rawlog::fromTCamera(st.leftCamera, what);
+        c.right = rawlog::fromTCamera(st.rightCamera, what);
+        c.T_left_right = rawlog::toSE3(mrpt::poses::CPose3D(st.rightCameraPose));
+        const auto& t = c.T_left_right.translation();
+        const bool pure_x = c.T_left_right.angle() < 1e-9 && std::abs(t.y()) < 1e-9 && std::abs(t.z()) < 1e-9;
+        const bool same_k = c.left.fx == c.right.fx && c.left.fy == c.right.fy && c.left.cx == c.right.cx &&
+                            c.left.cy == c.right.cy;
+        c.rectified = pure_x && same_k && !c.left.hasDistortion() && !c.right.hasDistortion();
+        c.baseline = t.norm();
+        c.depth_threshold = 35.0;
+      }
+    } else if (s.kind != k) {
+      throw DataError("rawlog " + I.file + ": sensor label '" + o->sensorLabel + "' has both " + s.cls + " and " +
+                      o->GetRuntimeClass()->className + " observations; cannot read it as one sequence");
+    }
+    s.frames.push_back({obj, sub, mrpt::Clock::toDouble(o->timestamp)});
+  };
+  bool any_sf = false, any_obs = false;
+  for (size_t obj = 0;; obj++) {
+    auto o = I.readNext();
+    if (!o) break;
+    if (auto sf = std::dynamic_pointer_cast<CSensoryFrame>(o)) {
+      any_sf = true;
+      for (size_t k = 0; k < sf->size(); k++) consider(sf->getObservationByIndex(k), obj, static_cast<int>(k));
+    } else if (auto ob = std::dynamic_pointer_cast<CObservation>(o)) {
+      any_obs = true;
+      consider(ob, obj, -1);
+    } else {
+      other[o->GetRuntimeClass()->className]++;
+    }
+    I.n_objects = obj + 1;
+  }
+  I.in.reset();
+  I.sf_format = any_sf && !any_obs;
+
+  std::string found;
+  for (const auto& [l, s] : I.scans) found += (found.empty() ? "" : ", ") + ("'" + l + "' (" + s.cls + " x" + std::to_string(s.frames.size()) + ")");
+  if (I.scans.empty()) {
+    std::string oth;
+    for (const auto& [c, n] : other) oth += (oth.empty() ? "" : ", ") + c + " x" + std::to_string(n);
+    throw DataError("rawlog " + I.file + ": no camera observations (" + std::to_string(I.n_objects) + " objects" +
+                    (oth.empty() ? std::string() : ": " + oth) + "; " + kRawlogLayout + ")");
+  }
+  I.label = p.getString("sensor_label");
+  if (I.label.empty()) {
+    if (I.scans.size() > 1)
+      throw ConfigError("rawlog " + I.file + " has several camera sensor labels: " + found +
+                        "; choose one with the parameter sensor_label");
+    I.label = I.scans.begin()->first;
+  } else if (!I.scans.count(I.label)) {
+    throw ConfigError("rawlog " + I.file + " has no camera observations with sensor label '" + I.label +
+                      "'; labels: " + found);
+  }
+  I.sel = &I.scans[I.label];
+  std::vector<double> stamps;
+  for (const auto& f : I.sel->frames) stamps.push_back(f.t);
+  ds::requireIncreasing(stamps, "rawlog " + I.file + " (sensor '" + I.label + "')");
+  I.do_register = I.sel->kind == Kind::RGBD && I.sel->needs_registration && I.register_depth;
+  if (I.sel->kind == Kind::RGBD && I.sel->needs_registration && !I.register_depth)
+    DSLAM_LOG(Warn, "rawlog " << I.file << ": depth and intensity cameras differ but register_depth is false; "
+                               "depth pixels will not line up with the image");
+  if (stamps.size() > 1 && stamps.back() > stamps.front())
+    I.sel->camera.fps = (stamps.size() - 1) / (stamps.back() - stamps.front());
+  else
+    I.sel->camera.fps = 30.0;
+
+  gt_.clear();
+  const std::string g = p.getString("groundtruth");
+  if (!g.empty()) {
+    const std::string gf = resolvePath(g, fs::path(I.file).parent_path().string());
+    requireFile(gf, "ground-truth file", "parameter groundtruth of the rawlog reader");
+    gt_ = traj::read(gf);
+  }
+}
+
+SensorFrame RawlogDataset::read(size_t i) { return readRaw(i, nullptr, nullptr); }
+
+SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) {
+  auto& I = *impl_;
+  if (!I.sel) throw DataError("RawlogDataset: read() before configure()");
+  if (i >= I.sel->frames.size())
+    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(I.sel->frames.size()) +
+                    " frames)");
+  if (depth_raw) depth_raw->release();
+  const FrameRef& ref = I.sel->frames[i];
+  CObservation::Ptr o = I.observation(ref);
+  const std::string where = "frame " + std::to_string(i) + " (rawlog " + I.file + ", object " + std::to_string(ref.obj) + ")";
+
+  // External images: check the files first for a clear message.
+  auto checkExternal = [&](const mrpt::img::CImage& im, const char* what) {
+    if (im.isExternallyStored()) {
+      const std::string path = im.getExternalStorageFileAbsolutePath();
+      if (!fileExists(path))
+        throw DataError("frame " + std::to_string(i) + ": external " + what + " " + path + " is missing (rawlog " +
+                        I.file + ", images folder " + I.images_dir + ")");
+    }
+  };
+  auto toMat = [&](const mrpt::img::CImage& im, const char* what) {
+    cv::Mat m;
+    try {
+      m = im.asCvMat<cv::Mat>(mrpt::img::DEEP_COPY);
+    } catch (const std::exception& e) {
+      throw DataError(where + ": cannot load " + what + ": " + std::string(e.what()).substr(0, 300));
+    }
+    if (m.empty()) throw DataError(where + ": " + what + " is empty");
+    return m;
+  };
+
+  mrpt::io::setLazyLoadPathBase(I.images_dir);
+  SensorFrame f;
+  f.index = static_cast<int>(i);
+  f.timestamp = ref.t;
+  f.image_path = I.file;
+  if (auto r = std::dynamic_pointer_cast<CObservation3DRangeScan>(o)) {
+    if (!r->hasIntensityImage) throw DataError(where + ": 3D range scan without intensity image");
+    if (!r->hasRangeImage) throw DataError(where + ": 3D range scan without range image");
+    checkExternal(r->intensityImage, "intensity image");
+    if (r->rangeImage_isExternallyStored()) {
+      const std::string path = r->rangeImage_getExternalStorageFileAbsolutePath("");
+      if (!fileExists(path))
+        throw DataError("frame " + std::to_string(i) + ": external range image " + path + " is missing (rawlog " +
+                        I.file + ")");
+    }
+    try {
+      r->load();
+    } catch (const std::exception& e) {
+      throw DataError(where + ": cannot load external data: " + std::string(e.what()).substr(0, 300));
+    }
+    f.image = toMat(r->intensityImage, "intensity image");
+    f.depth_path = I.file;
+    const cv::Mat raw = rawlog::rangeToMat(r->rangeImage);
+    cv::Mat depth;
+    raw.convertTo(depth, CV_32F, static_cast<double>(r->rangeUnits));
+    const PinholeCamera kd = rawlog::fromTCamera(r->cameraParams, where);
+    if (!r->range_is_depth) {  // range along the ray -> depth along the optical axis
+      for (int y = 0; y < depth.rows; y++) {
+        float* d = depth.ptr<float>(y);
+        for (int x = 0; x < depth.cols; x++) {
+          const double a = (x - kd.cx) / kd.fx, b = (y - kd.cy) / kd.fy;
+          d[x] = static_cast<float>(d[x] / std::sqrt(1 + a * a + b * b));
+        }
+      }
+    }
+    if (I.do_register) {
+      PinholeCamera ki = I.sel->camera.left;
+      ki.width = f.image.cols;
+      ki.height = f.image.rows;
+      f.depth = rawlog::registerDepth(depth, kd, ki, rawlog::intensityFromDepth(*r));
+    } else {
+      if (depth.size() != f.image.size())
+        throw DataError(where + ": range image " + std::to_string(depth.cols) + "x" + std::to_string(depth.rows) +
+                        " and intensity image " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
+                        " differ in size and register_depth is false");
+      f.depth = depth;
+      if (depth_raw && r->range_is_depth) *depth_raw = raw;
+    }
+    if (units) *units = static_cast<double>(r->rangeUnits);
+    r->unload();
+  } else if (auto st = std::dynamic_pointer_cast<CObservationStereoImages>(o)) {
+    checkExternal(st->imageLeft, "left image");
+    if (st->hasImageRight) checkExternal(st->imageRight, "right image");
+    f.image = toMat(st->imageLeft, "left image");
+    if (st->hasImageRight) {
+      f.image_right = toMat(st->imageRight, "right image");
+      f.image_right_path = I.file;
+    }
+    st->unload();
+  } else if (auto im = std::dynamic_pointer_cast<CObservationImage>(o)) {
+    checkExternal(im->image, "image");
+    f.image = toMat(im->image, "image");
+    im->unload();
+  } else {
+    throw DataError(where + ": unexpected " + rawlog::describeObs(*o));
+  }
+  f.gt_T_wc = ds::nearestPose(gt_, f.timestamp);
+  return f;
+}
+
+}  // namespace dslam
