@@ -4,6 +4,7 @@
 #include <mutex>
 
 #include "dslam/core/registry.h"
+#include "dslam/slam/system.h"
 
 namespace dslam {
 #define DSLAM_FAMILY(f) void register_##f##_plugins();
@@ -27,6 +28,7 @@ DSLAM_FAMILY(map_managers)
 void register_builtin_plugins() {
   static std::once_flag once;
   std::call_once(once, [] {
+    registerSlamSections();
 #ifdef DSLAM_HAVE_DATASETS
     register_datasets_plugins();
 #endif

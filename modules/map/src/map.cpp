@@ -1,0 +1,58 @@
+#include "dslam/map/map.h"
+
+namespace dslam {
+
+namespace {
+std::atomic<int64_t> g_next_kf{0}, g_next_pt{0};
+}
+
+Map::Map(int64_t id_) : id(id_) {}
+Map::~Map() { clear(); }
+
+int64_t Map::nextKeyFrameId() { return g_next_kf++; }
+int64_t Map::nextPointId() { return g_next_pt++; }
+void Map::reserveIds(int64_t kf, int64_t pt) {
+  int64_t cur = g_next_kf.load();
+  while (cur <= kf && !g_next_kf.compare_exchange_weak(cur, kf + 1)) {
+  }
+  cur = g_next_pt.load();
+  while (cur <= pt && !g_next_pt.compare_exchange_weak(cur, pt + 1)) {
+  }
+}
+
+void Map::addKeyFrame(const KeyFramePtr& kf) {
+  if (!origin_) origin_ = kf;
+  kfs_[kf->id] = kf;
+  all_kfs_[kf->id] = kf;
+}
+
+void Map::addPoint(const MapPointPtr& p) { points_[p->id] = p; }
+
+void Map::eraseKeyFrame(KeyFrame* kf) { kfs_.erase(kf->id); }
+
+void Map::erasePoint(MapPoint* p) { points_.erase(p->id); }
+
+KeyFramePtr Map::keyframe(int64_t i) const {
+  auto it = all_kfs_.find(i);
+  return it == all_kfs_.end() ? nullptr : it->second;
+}
+
+MapPointPtr Map::point(int64_t i) const {
+  auto it = points_.find(i);
+  return it == points_.end() ? nullptr : it->second;
+}
+
+void Map::clear() {
+  // Break shared_ptr cycles (points <-> replaced links, keyframe point slots).
+  for (auto& [i, kf] : all_kfs_) {
+    for (auto& p : kf->points) p.reset();
+  }
+  for (auto& [i, p] : points_) p->replaced.reset();
+  reference_points.clear();
+  points_.clear();
+  kfs_.clear();
+  all_kfs_.clear();
+  origin_.reset();
+}
+
+}  // namespace dslam

@@ -1,0 +1,99 @@
+#pragma once
+/** \file local_mapper.h
+ *  Local mapping (ORB-SLAM2 LocalMapping): keyframe insertion, covisibility
+ *  update, recent map-point culling, new points by triangulation between
+ *  neighbouring keyframes, fusion of duplicates, local bundle adjustment
+ *  through a Backend plugin, redundant keyframe culling.
+ *
+ *  Sequential mode: the owner calls processAll() after each tracked frame
+ *  (deterministic). Parallel mode: start() runs the same steps in a thread
+ *  that waits on a condition variable for keyframes. */
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "dslam/core/backend.h"
+#include "dslam/core/params.h"
+#include "dslam/core/timing.h"
+#include "dslam/map/map.h"
+#include "dslam/tracking/tracker.h"
+
+namespace dslam {
+
+struct LocalMapperParams {
+  int triangulation_neighbours = 10;  ///< ORB-SLAM2: 10 (stereo/RGB-D), 20 monocular
+  float kf_culling_redundancy = 0.9f; ///< keyframe culled if > this fraction of its points is seen by 3 others
+  int kf_culling_min_obs = 3;         ///< thObs
+  float found_ratio_min = 0.25f;      ///< recent point culled if found/visible below
+  bool local_ba = true;
+  int ba_iterations = 10;             ///< second pass iterations (first pass 5, ORB-SLAM)
+  bool monocular = false;
+
+  static std::vector<ParamSpec> specs();
+  static LocalMapperParams fromParams(const Params& p);
+};
+
+class LocalMapper : public KeyFrameSink {
+ public:
+  LocalMapper(const LocalMapperParams& p, std::shared_ptr<Backend> backend, StageTimer* timer = nullptr);
+  ~LocalMapper() override;
+
+  void setMap(const MapPtr& m) { map_ = m; }
+  /** Called with every processed keyframe (loop closing queue). */
+  void setKeyFrameCallback(std::function<void(const KeyFramePtr&)> cb) { on_kf_ = std::move(cb); }
+
+  // KeyFrameSink
+  bool acceptsKeyFrames() const override { return accept_; }
+  size_t queuedKeyFrames() const override;
+  bool isStopped() const override { return stopped_; }
+  void interruptBA() override { abort_ba_ = true; }
+  void insertKeyFrame(const KeyFramePtr& kf) override;
+
+  /** Sequential mode: processes every queued keyframe now. */
+  void processAll();
+  /** Parallel mode. */
+  void start();
+  void stop();  ///< finishes the queue and joins the thread
+  /** Loop closing asks local mapping to pause (returns once paused) / resume. */
+  void requestPause();
+  void resume();
+  /** Clears the queue and recent points (map reset). */
+  void reset();
+
+  int keyframesProcessed() const { return processed_; }
+  int keyframesCulled() const { return culled_; }
+  int pointsCreated() const { return created_; }
+
+ private:
+  void run();
+  void processOne(const KeyFramePtr& kf);
+  void processNewKeyFrame();
+  void mapPointCulling();
+  void createNewMapPoints();
+  void searchInNeighbors();
+  void localBundleAdjustment();
+  void keyFrameCulling();
+
+  LocalMapperParams p_;
+  std::shared_ptr<Backend> backend_;
+  StageTimer* timer_;
+  MapPtr map_;
+  std::function<void(const KeyFramePtr&)> on_kf_;
+
+  mutable std::mutex queue_mtx_;
+  std::condition_variable cv_;
+  std::deque<KeyFramePtr> queue_;
+  KeyFramePtr cur_;
+  std::list<MapPointPtr> recent_points_;
+  std::atomic<bool> accept_{true}, abort_ba_{false}, stopped_{false}, finish_{false}, pause_req_{false};
+  std::atomic<bool> paused_{false};
+  std::thread thread_;
+  int processed_ = 0, culled_ = 0, created_ = 0;
+};
+
+}  // namespace dslam

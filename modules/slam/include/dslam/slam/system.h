@@ -1,0 +1,132 @@
+#pragma once
+/** \file system.h
+ *  The SLAM system: feature front end, detectors, keypoint-classifier
+ *  chain, tracking, local mapping (and, when configured, loop closing).
+ *  Usable on its own (embedding: feed SensorFrames) or through
+ *  runPipeline() (the `dslam run` command).
+ *
+ *  Threads: `Mode::Sequential` runs everything in the caller's thread and is
+ *  deterministic; `Mode::Parallel` runs local mapping in its own thread and
+ *  each detector in a worker thread concurrently with ORB extraction (the
+ *  tracker waits on a condition variable for the detections). */
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dslam/config/pipeline.h"
+#include "dslam/core/backend.h"
+#include "dslam/core/camera.h"
+#include "dslam/core/detector.h"
+#include "dslam/core/keypoint_classifier.h"
+#include "dslam/core/map_manager.h"
+#include "dslam/core/timing.h"
+#include "dslam/core/trajectory.h"
+#include "dslam/features/frontend.h"
+#include "dslam/mapping/local_mapper.h"
+#include "dslam/tracking/tracker.h"
+
+namespace dslam {
+
+/** Parameters of the built-in pipeline sections `features:`, `tracking:`, `mapping:`. */
+struct SlamParams {
+  FrontendParams frontend;
+  TrackerParams tracker;
+  LocalMapperParams mapper;
+  static SlamParams fromConfig(const config::PipelineConfig& pc);
+};
+
+/** Registers the `features`, `tracking`, `mapping` sections with the config loader. */
+void registerSlamSections();
+
+struct FrameResult {
+  int frame_index = -1;
+  double timestamp = 0;
+  TrackResult track;
+  size_t keypoints = 0, dynamic_keypoints = 0;
+  int feature_count = 0;  ///< ORB feature count used for this frame
+  double ms_total = 0;    ///< per-frame tracking-thread time
+};
+
+class System {
+ public:
+  System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<Backend> backend,
+         config::Mode mode = config::Mode::Sequential, std::shared_ptr<MapManager> maps = nullptr);
+  ~System();
+  System(const System&) = delete;
+  System& operator=(const System&) = delete;
+
+  /** Adds a detector; classifiers name it as their input (first one by default). */
+  void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1);
+  /** Appends a classifier to the chain; `detector` = "" uses the first detector. */
+  void addClassifier(const std::string& name, std::shared_ptr<KeypointClassifier> c, const std::string& detector = "");
+
+  /** Runs the whole pipeline on one frame. */
+  FrameResult track(const SensorFrame& frame);
+  /** Waits for local mapping to finish its queue and stops the threads. */
+  void shutdown();
+
+  /** Camera trajectory of the tracked frames (T_wc), corrected by the
+   *  latest keyframe poses; `lost` receives the frame indices not tracked. */
+  Trajectory cameraTrajectory(std::vector<int>* lost = nullptr) const;
+  Trajectory keyframeTrajectory() const;
+  /** Map points as ASCII PLY (x y z, RGB by label: static grey, movable blue, dynamic red). */
+  void writePly(const std::string& path) const;
+
+  StageTimer& timer() { return timer_; }
+  const CameraModel& camera() const { return frontend_->camera(); }
+  MapPtr map() const;
+  MapManager& mapManager() { return *maps_; }
+  const Tracker& tracker() const { return *tracker_; }
+  const LocalMapper& mapper() const { return *mapper_; }
+  size_t framesProcessed() const { return frames_; }
+
+ private:
+  struct DetectorSlot;
+  struct ClassifierSlot {
+    std::string name;
+    std::shared_ptr<KeypointClassifier> c;
+    int detector = -1;
+  };
+
+  config::Mode mode_;
+  SlamParams p_;
+  StageTimer timer_;
+  std::unique_ptr<FeatureFrontend> frontend_;
+  std::shared_ptr<Backend> backend_;
+  std::shared_ptr<MapManager> maps_;
+  std::unique_ptr<LocalMapper> mapper_;
+  std::unique_ptr<Tracker> tracker_;
+  std::vector<std::unique_ptr<DetectorSlot>> detectors_;
+  std::vector<ClassifierSlot> classifiers_;
+  std::optional<Frame> prev_frame_;
+  std::vector<Detections> prev_dets_;
+  std::optional<SE3> prev_T_wc_;
+  int base_features_ = 1000;
+  size_t frames_ = 0;
+  bool shut_ = false;
+};
+
+/** Options of `dslam run` that override the pipeline file. */
+struct RunOverrides {
+  std::string dataset;          ///< dataset path (type auto-detected unless the file has one)
+  std::string out_dir;
+  int max_frames = -1;
+  bool quiet_progress = false;
+  std::string load_atlas;
+  bool localization_only = false;
+};
+
+/** Summary of a run (also written to <out>/summary.json). */
+struct RunSummary {
+  size_t frames = 0, tracked = 0, keyframes = 0, map_points = 0, maps = 1;
+  double median_ms = 0, mean_ms = 0, fps = 0, wall_s = 0;
+  std::optional<double> ate_rmse;  ///< metres, SE(3) alignment, when ground truth exists
+  size_t ate_pairs = 0;
+  std::string out_dir;
+};
+
+/** Runs a pipeline on its dataset, writes every output, prints the summary. */
+RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov = {});
+
+}  // namespace dslam

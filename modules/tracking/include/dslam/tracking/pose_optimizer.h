@@ -1,0 +1,42 @@
+#pragma once
+/** \file pose_optimizer.h
+ *  Pose-only optimisation of a frame against its matched map points
+ *  (ORB-SLAM2 Optimizer::PoseOptimization): Gauss-Newton with a Huber
+ *  kernel on [u, v] (monocular) or [u, v, u_right] (stereo / RGB-D)
+ *  residuals weighted by the keypoint level's 1/sigma^2; four rounds of
+ *  optimisation with chi2 outlier classification (5.991 / 7.815), the
+ *  robust kernel dropped in the last rounds. Hand-written: ~0.2 ms for
+ *  500 matches, far below a general solver's overhead. */
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dslam/core/se3.h"
+
+namespace dslam {
+
+struct PoseObservation {
+  Eigen::Vector3d Xw;       ///< map point (world)
+  Eigen::Vector2d uv;       ///< undistorted keypoint
+  double u_right = -1;      ///< < 0: monocular
+  double information = 1;   ///< 1 / sigma^2 of the keypoint's level
+};
+
+struct PoseOptimizerParams {
+  double fx = 0, fy = 0, cx = 0, cy = 0, bf = 0;
+  double chi2_mono = 5.991, chi2_stereo = 7.815;
+  int rounds = 4;
+  int iterations = 10;
+};
+
+struct PoseOptimizerResult {
+  int inliers = 0;
+  double final_chi2 = 0;  ///< sum over inliers
+};
+
+/** Optimises T_cw in place; `outlier` (same size as obs) receives the
+ *  classification of the last round. */
+PoseOptimizerResult optimizePose(SE3& T_cw, const std::vector<PoseObservation>& obs, std::vector<char>& outlier,
+                                 const PoseOptimizerParams& p);
+
+}  // namespace dslam
