@@ -1,0 +1,65 @@
+#pragma once
+/** \file depth_repopulation.h
+ *  Changing-SLAM's depth-based repopulation of keypoints inside boxes. */
+#include <map>
+#include <string>
+#include <vector>
+
+#include "dslam/core/keypoint_classifier.h"
+
+namespace dslam {
+
+/** Depth statistics of one box (valid depths > 0 of Frame::input.depth,
+ *  or of the keypoint depths when the frame has no depth image). */
+struct BoxDepthStats {
+  int box = -1;          ///< index in Detections::boxes
+  int class_id = -1;
+  int samples = 0;       ///< valid depth samples used
+  float min = 0, max = 0, mean = 0, median = 0, stddev = 0;
+  float object_depth = 0;  ///< min (or the `min_percentile` percentile)
+  float center_depth = 0;  ///< median over the central window (0 = no valid sample)
+  float center_std = 0;    ///< std over the central window
+  float margin = 0;        ///< class depth margin used
+  bool occluded = false;   ///< unlabelled occluder detected: keypoints unusable
+};
+
+/** Keypoints inside boxes are split by depth (Changing-SLAM, Sec. 4.1):
+ *  deeper than the object depth (the minimum valid depth in the box) plus
+ *  a per-class margin -> background, kept (Static, BoxBackground); the rest
+ *  lie on the object: Dynamic (InDynamicBox) for `dynamic_classes`
+ *  (person), Movable (OnObject) for other detected classes. Pixels shared
+ *  by overlapping boxes are left out of the statistics.
+ *
+ *  Unlabelled occluder (the box's keypoints become Dynamic, Occluded):
+ *  the depth at the box centre (median of the central window) is deeper
+ *  than object depth + margin, i.e. the nearest surface in the box is not
+ *  the detected object, or the central window's depth std exceeds
+ *  `max_center_std` (no single surface at the box centre).
+ *
+ *  Re-labelling: this classifier decides keypoints inside its boxes, also
+ *  returning to Static keypoints an earlier BoxFilter dropped (reason
+ *  InDynamicBox or None). Keypoints dropped for any other reason (epipolar
+ *  outlier, semantic mask, ...) are never lowered. */
+class DepthRepopulation : public KeypointClassifier {
+  DEFINE_MRPT_OBJECT(DepthRepopulation, dslam)
+ public:
+  std::string description() const override;
+  std::vector<ParamSpec> paramSpecs() const override;
+  void configure(const Params& p, const PluginContext& ctx) override;
+  void classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) override;
+
+  /** Statistics of the boxes of the last classified frame. */
+  const std::vector<BoxDepthStats>& lastStats() const { return stats_; }
+
+ private:
+  std::vector<int> classes_, dynamic_classes_{1};
+  double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3;
+  int stride_ = 2, min_samples_ = 10;
+  bool exclude_overlap_ = true;
+  std::map<int, double> margin_;
+  double margin_default_ = 0.5;
+  std::vector<BoxDepthStats> stats_;
+  std::vector<float> buf_, cbuf_;
+};
+
+}  // namespace dslam

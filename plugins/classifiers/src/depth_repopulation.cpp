@@ -1,0 +1,252 @@
+#include "dslam/plugins/classifiers/depth_repopulation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common.h"
+#include "dslam/core/error.h"
+
+IMPLEMENTS_MRPT_OBJECT(DepthRepopulation, KeypointClassifier, dslam)
+
+namespace dslam {
+
+std::string DepthRepopulation::description() const {
+  return "Changing-SLAM depth repopulation: keypoints in boxes behind the object are kept, those on it dropped "
+         "(person) or movable (other classes); unlabelled occluders drop the box";
+}
+
+std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
+  return {
+      P_list("classes", ParamType::IntList, "[]", "COCO ids of the boxes considered ([] = every detected class)"),
+      P_list("dynamic_classes", ParamType::IntList, "[1]",
+             "classes whose object keypoints are dynamic (Changing-SLAM: person); other classes are movable"),
+      P_double("min_score", 0, "ignore boxes with a lower score", 0, 1),
+      P_map("depth_margin", "{person: 0.5, default: 0.5}",
+            "per-class depth (m) behind the object's nearest point still on the object (COCO names or ids; "
+            "Changing-SLAM 4.1; paper value not confirmed, see docs/classifiers.md)"),
+      P_double("min_percentile", 0,
+               "object depth = this percentile of the box depths (0 = minimum, Changing-SLAM 4.1)", 0, 50),
+      P_double("center_fraction", 0.2, "size of the central window, fraction of the box width/height", 0.01, 1),
+      P_double("max_center_std", 0.3,
+               "depth std (m) of the central window above which the box counts as occluded (chosen default)", 0,
+               100),
+      P_bool("exclude_overlap", true, "leave pixels shared by overlapping boxes out of the statistics (Changing-SLAM 4.1)"),
+      P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
+      P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
+            1000000),
+  };
+}
+
+void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
+  KeypointClassifier::configure(p, ctx);
+  classes_ = cls::cocoIdList(p, "classes");
+  dynamic_classes_ = cls::cocoIdList(p, "dynamic_classes");
+  min_score_ = p.getDouble("min_score");
+  const cls::ClassValues m = cls::classValues(p, "depth_margin");
+  margin_ = m.by_class;
+  margin_default_ = m.fallback;
+  min_percentile_ = p.getDouble("min_percentile");
+  center_fraction_ = p.getDouble("center_fraction");
+  max_center_std_ = p.getDouble("max_center_std");
+  exclude_overlap_ = p.getBool("exclude_overlap");
+  stride_ = static_cast<int>(p.getInt("pixel_stride"));
+  min_samples_ = static_cast<int>(p.getInt("min_samples"));
+}
+
+namespace {
+
+struct Summary {
+  int n = 0;
+  float min = 0, max = 0, mean = 0, median = 0, stddev = 0, pct = 0;
+};
+
+// Summary of `v` (reordered); `pct` percentile in [0, 50].
+Summary summarize(std::vector<float>& v, double pct) {
+  Summary s;
+  s.n = static_cast<int>(v.size());
+  if (v.empty()) return s;
+  double sum = 0, sum2 = 0;
+  float mn = v[0], mx = v[0];
+  for (float x : v) {
+    sum += x;
+    sum2 += static_cast<double>(x) * x;
+    mn = std::min(mn, x);
+    mx = std::max(mx, x);
+  }
+  s.min = mn;
+  s.max = mx;
+  s.mean = static_cast<float>(sum / s.n);
+  s.stddev = static_cast<float>(std::sqrt(std::max(0.0, sum2 / s.n - (sum / s.n) * (sum / s.n))));
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  s.median = v[mid];
+  if (pct <= 0) {
+    s.pct = mn;
+  } else {
+    const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::floor(pct / 100.0 * (v.size() - 1))));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    s.pct = v[k];
+  }
+  return s;
+}
+
+inline bool validDepth(float d) { return d > 0 && std::isfinite(d); }
+
+}  // namespace
+
+void DepthRepopulation::classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) {
+  cls::ensureMeta(frame);
+  stats_.clear();
+  if (!det.valid || det.boxes.empty()) return;
+  const cv::Mat& depth = frame.input.depth;
+  if (!depth.empty() && depth.type() != CV_32F)
+    throw DataError("frame " + std::to_string(frame.index()) + ": depth image must be CV_32F metres, got type " +
+                    std::to_string(depth.type()));
+  const cv::Size img = cls::imageSize(frame, ctx.camera, depth.size());
+
+  std::vector<int> sel;
+  for (size_t b = 0; b < det.boxes.size(); b++) {
+    const auto& bb = det.boxes[b];
+    if (bb.score < min_score_ || bb.box.width <= 0 || bb.box.height <= 0) continue;
+    if (!classes_.empty() && !cls::contains(classes_, bb.class_id)) continue;
+    sel.push_back(static_cast<int>(b));
+  }
+  if (sel.empty()) return;
+
+  // Keypoint depth: Frame::depth, else the depth image at the keypoint.
+  auto kpDepth = [&](size_t i) -> float {
+    if (i < frame.depth.size() && validDepth(frame.depth[i])) return frame.depth[i];
+    if (!depth.empty()) {
+      const int x = static_cast<int>(std::lround(frame.keypoints[i].pt.x));
+      const int y = static_cast<int>(std::lround(frame.keypoints[i].pt.y));
+      if (x >= 0 && y >= 0 && x < depth.cols && y < depth.rows) {
+        const float d = depth.at<float>(y, x);
+        if (validDepth(d)) return d;
+      }
+    }
+    return 0.f;
+  };
+
+  // Decided label per keypoint (max over the boxes containing it).
+  std::vector<int8_t> decided(frame.size(), -1);
+  std::vector<KpReason> why(frame.size(), KpReason::None);
+  std::vector<int16_t> cls_of(frame.size(), -1);
+  auto decide = [&](size_t i, KpLabel l, KpReason r, int class_id) {
+    if (static_cast<int>(l) > decided[i]) {
+      decided[i] = static_cast<int8_t>(l);
+      why[i] = r;
+      cls_of[i] = static_cast<int16_t>(class_id);
+    }
+  };
+
+  const cv::Rect2f full(0, 0, static_cast<float>(img.width), static_cast<float>(img.height));
+  for (int b : sel) {
+    const BoundingBox& bb = det.boxes[b];
+    const cv::Rect2f box = bb.box & full;
+    if (box.width <= 0 || box.height <= 0) continue;
+    // Overlaps with the other considered boxes (left out of the statistics).
+    std::vector<cv::Rect2f> shared;
+    if (exclude_overlap_)
+      for (int o : sel)
+        if (o != b) {
+          const cv::Rect2f x = box & det.boxes[o].box;
+          if (x.width > 0 && x.height > 0) shared.push_back(x);
+        }
+    auto isShared = [&](float x, float y) {
+      for (const auto& s : shared)
+        if (x >= s.x && y >= s.y && x < s.x + s.width && y < s.y + s.height) return true;
+      return false;
+    };
+    const float cw = box.width * static_cast<float>(center_fraction_),
+                ch = box.height * static_cast<float>(center_fraction_);
+    const cv::Rect2f center(box.x + 0.5f * (box.width - cw), box.y + 0.5f * (box.height - ch), cw, ch);
+
+    buf_.clear();
+    cbuf_.clear();
+    if (!depth.empty()) {
+      const cv::Rect r = cv::Rect(cv::Point(static_cast<int>(std::floor(box.x)), static_cast<int>(std::floor(box.y))),
+                                  cv::Point(static_cast<int>(std::ceil(box.x + box.width)),
+                                            static_cast<int>(std::ceil(box.y + box.height)))) &
+                         cv::Rect(0, 0, depth.cols, depth.rows);
+      const cv::Rect rc =
+          cv::Rect(cv::Point(static_cast<int>(std::floor(center.x)), static_cast<int>(std::floor(center.y))),
+                   cv::Point(static_cast<int>(std::ceil(center.x + center.width)),
+                             static_cast<int>(std::ceil(center.y + center.height)))) &
+          cv::Rect(0, 0, depth.cols, depth.rows);
+      for (int y = r.y; y < r.y + r.height; y += stride_) {
+        const float* row = depth.ptr<float>(y);
+        for (int x = r.x; x < r.x + r.width; x += stride_) {
+          const float d = row[x];
+          if (!validDepth(d)) continue;
+          if (!shared.empty() && isShared(static_cast<float>(x), static_cast<float>(y))) continue;
+          buf_.push_back(d);
+        }
+      }
+      for (int y = rc.y; y < rc.y + rc.height; y++) {  // central window: every pixel
+        const float* row = depth.ptr<float>(y);
+        for (int x = rc.x; x < rc.x + rc.width; x++)
+          if (validDepth(row[x])) cbuf_.push_back(row[x]);
+      }
+    } else {  // no depth image: keypoint depths
+      for (size_t i = 0; i < frame.size(); i++) {
+        const cv::Point2f& pt = frame.keypoints[i].pt;
+        if (!cls::inBox(pt, box)) continue;
+        const float d = kpDepth(i);
+        if (!validDepth(d)) continue;
+        if (!isShared(pt.x, pt.y)) buf_.push_back(d);
+        if (cls::inBox(pt, center)) cbuf_.push_back(d);
+      }
+    }
+
+    BoxDepthStats st;
+    st.box = b;
+    st.class_id = bb.class_id;
+    auto mit = margin_.find(bb.class_id);
+    st.margin = static_cast<float>(mit == margin_.end() ? margin_default_ : mit->second);
+    const Summary s = summarize(buf_, min_percentile_);
+    st.samples = s.n;
+    st.min = s.min, st.max = s.max, st.mean = s.mean, st.median = s.median, st.stddev = s.stddev;
+    st.object_depth = s.pct;
+    const Summary c = summarize(cbuf_, 0);
+    st.center_depth = c.n > 0 ? c.median : 0.f;
+    st.center_std = c.stddev;
+    const bool enough = s.n >= min_samples_;
+    if (enough && c.n > 0)
+      st.occluded = st.center_depth > st.object_depth + st.margin || st.center_std > max_center_std_;
+    stats_.push_back(st);
+
+    const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
+    const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
+    const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
+    for (size_t i = 0; i < frame.size(); i++) {
+      if (!cls::inBox(frame.keypoints[i].pt, box)) continue;
+      if (st.occluded) {
+        decide(i, KpLabel::Dynamic, KpReason::Occluded, bb.class_id);
+        continue;
+      }
+      const float d = kpDepth(i);
+      if (enough && validDepth(d) && d > st.object_depth + st.margin)
+        decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // behind: not on the class
+      else
+        decide(i, on_label, on_reason, bb.class_id);
+    }
+  }
+
+  for (size_t i = 0; i < frame.size(); i++) {
+    if (decided[i] < 0) continue;
+    KeypointMeta& m = frame.meta[i];
+    const auto l = static_cast<KpLabel>(decided[i]);
+    if (m.reason == KpReason::None || m.reason == KpReason::InDynamicBox) {
+      m.label = l;  // repopulation: may return a box-filtered keypoint to Static
+      m.reason = why[i];
+    } else {
+      cls::raise(m, l, why[i]);
+    }
+    if (cls_of[i] >= 0)
+      m.class_id = cls_of[i];
+    else if (cls_of[i] <= -2 && m.class_id == -2 - cls_of[i])
+      m.class_id = -1;  // background behind the box's object, not on it
+  }
+}
+
+}  // namespace dslam

@@ -1,0 +1,342 @@
+// DepthRepopulation and EkfObjectTracker on hand-made depth frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "classifier_test_util.h"
+#include "dslam/core/error.h"
+#include "dslam/plugins/classifiers/box_filter.h"
+#include "dslam/plugins/classifiers/depth_repopulation.h"
+#include "dslam/plugins/classifiers/ekf_object_tracker.h"
+
+using namespace dslam;
+using namespace dslam::test;
+
+namespace {
+
+/** Frame with a depth image and keypoint depths sampled from it. */
+Frame depthFrame(const cv::Mat& depth, const std::vector<cv::Point2f>& pts, int index = 0, double t = 0) {
+  Frame f = makeFrame(pts, depth.size(), index, t);
+  f.input.depth = depth;
+  for (size_t i = 0; i < pts.size(); i++)
+    f.depth[i] = depth.at<float>(static_cast<int>(std::lround(pts[i].y)), static_cast<int>(std::lround(pts[i].x)));
+  return f;
+}
+
+}  // namespace
+
+// Person at 1.5 m covering the box centre, wall at 4 m around it.
+TEST(DepthRepopulation, KeepsBackgroundBehindPersonDropsPerson) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.0f));
+  depth(cv::Rect(250, 100, 100, 300)).setTo(1.5f);  // the person (inside the box, covers its centre)
+  depth(cv::Rect(420, 250, 80, 120)).setTo(2.0f);   // a chair in front of the wall
+  Detections d;
+  d.boxes = {box(200, 100, 200, 300, 1), box(410, 240, 100, 140, 62)};
+  const std::vector<cv::Point2f> pts = {
+      {300, 200}, {270, 380}, {330, 120},  // on the person
+      {220, 150}, {380, 350}, {210, 390},  // wall seen inside the person box
+      {460, 300}, {415, 245},              // on the chair / wall inside the chair box
+      {100, 100}, {600, 450}};             // outside every box
+  Frame f = depthFrame(depth, pts);
+  auto bf = makeClassifier<BoxFilter>("BoxFilter");
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation");
+  bf->classify(f, d, {});  // Crowd-SLAM first: the whole person box is dropped
+  EXPECT_EQ(f.countLabel(KpLabel::Dynamic), 6u);
+  rep->classify(f, d, {});
+  for (int i : {0, 1, 2}) {
+    EXPECT_EQ(f.meta[i].label, KpLabel::Dynamic) << i;
+    EXPECT_EQ(f.meta[i].reason, KpReason::InDynamicBox) << i;
+    EXPECT_EQ(f.meta[i].class_id, 1) << i;
+  }
+  for (int i : {3, 4, 5}) {
+    EXPECT_EQ(f.meta[i].label, KpLabel::Static) << i;
+    EXPECT_EQ(f.meta[i].reason, KpReason::BoxBackground) << i;
+    EXPECT_EQ(f.meta[i].class_id, -1) << i;  // the box filter's person class is withdrawn
+  }
+  EXPECT_EQ(f.meta[6].label, KpLabel::Movable);
+  EXPECT_EQ(f.meta[6].reason, KpReason::OnObject);
+  EXPECT_EQ(f.meta[6].class_id, 62);
+  EXPECT_EQ(f.meta[7].label, KpLabel::Static);
+  EXPECT_EQ(f.meta[7].reason, KpReason::BoxBackground);
+  EXPECT_EQ(f.meta[8].reason, KpReason::None);
+  EXPECT_EQ(f.meta[9].reason, KpReason::None);
+
+  ASSERT_EQ(rep->lastStats().size(), 2u);
+  const BoxDepthStats& s = rep->lastStats()[0];
+  EXPECT_FLOAT_EQ(s.min, 1.5f);
+  EXPECT_FLOAT_EQ(s.max, 4.0f);
+  EXPECT_FLOAT_EQ(s.object_depth, 1.5f);
+  EXPECT_FLOAT_EQ(s.center_depth, 1.5f);
+  EXPECT_FLOAT_EQ(s.median, 4.0f);  // the person fills exactly half the box: upper median
+  EXPECT_NEAR(s.mean, 2.75f, 0.02f);
+  EXPECT_NEAR(s.stddev, 1.25f, 0.02f);
+  EXPECT_FALSE(s.occluded);
+  EXPECT_FLOAT_EQ(rep->lastStats()[1].object_depth, 2.0f);
+}
+
+TEST(DepthRepopulation, ClassMarginsAndEarlierReasons) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(2.3f));  // wall only 0.8 m behind the person
+  depth(cv::Rect(250, 100, 100, 300)).setTo(1.5f);
+  Detections d;
+  d.boxes = {box(200, 100, 200, 300, 1)};
+  const std::vector<cv::Point2f> pts = {{220, 150}, {380, 350}, {300, 200}};
+  {  // default margin 0.5: 2.3 > 2.0 -> background
+    Frame f = depthFrame(depth, pts);
+    f.meta[1] = {KpLabel::Dynamic, KpReason::EpipolarOutlier, -1, -1};  // other evidence: never lowered
+    makeClassifier<DepthRepopulation>("DepthRepopulation")->classify(f, d, {});
+    EXPECT_EQ(f.meta[0].label, KpLabel::Static);
+    EXPECT_EQ(f.meta[1].label, KpLabel::Dynamic);
+    EXPECT_EQ(f.meta[1].reason, KpReason::EpipolarOutlier);
+    EXPECT_EQ(f.meta[2].label, KpLabel::Dynamic);
+  }
+  {  // person margin 1.0: the wall at 2.3 m is still "on the person"
+    Frame f = depthFrame(depth, pts);
+    makeClassifier<DepthRepopulation>("DepthRepopulation", "depth_margin: {person: 1.0, default: 0.5}")
+        ->classify(f, d, {});
+    EXPECT_EQ(f.countLabel(KpLabel::Dynamic), 3u);
+  }
+  register_classifiers_plugins();
+  auto p = create<KeypointClassifier>("dslam::DepthRepopulation");
+  EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "depth_margin: {persn: 1.0, default: 0.5}"), {}),
+               ConfigError);
+  EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "depth_margin: {person: 1.0}"), {}), ConfigError);
+}
+
+// Person at 2.5 m at the box centre, an unlabelled occluder at 1.0 m over the
+// bottom of the box: the nearest surface is not the person -> the box's
+// keypoints are unusable, including the wall ones.
+TEST(DepthRepopulation, UnlabelledOccluderMakesBoxUnusable) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.0f));
+  depth(cv::Rect(250, 100, 100, 300)).setTo(2.5f);
+  depth(cv::Rect(150, 320, 300, 80)).setTo(1.0f);  // table edge in front, not detected
+  Detections d;
+  d.boxes = {box(200, 100, 200, 300, 1)};
+  const std::vector<cv::Point2f> pts = {{300, 200}, {220, 150}, {380, 250}, {300, 350}, {100, 100}};
+  Frame f = depthFrame(depth, pts);
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation");
+  rep->classify(f, d, {});
+  for (int i : {0, 1, 2, 3}) {
+    EXPECT_EQ(f.meta[i].label, KpLabel::Dynamic) << i;
+    EXPECT_EQ(f.meta[i].reason, KpReason::Occluded) << i;
+  }
+  EXPECT_EQ(f.meta[4].label, KpLabel::Static);
+  ASSERT_EQ(rep->lastStats().size(), 1u);
+  EXPECT_TRUE(rep->lastStats()[0].occluded);
+  EXPECT_FLOAT_EQ(rep->lastStats()[0].object_depth, 1.0f);
+  EXPECT_FLOAT_EQ(rep->lastStats()[0].center_depth, 2.5f);
+
+  // No single surface at the box centre (person/wall edge through the centre window): occluded by std.
+  cv::Mat d2(480, 640, CV_32F, cv::Scalar(4.0f));
+  d2(cv::Rect(200, 100, 100, 300)).setTo(1.5f);  // person fills the left half, edge at x = 300
+  Frame g = depthFrame(d2, {{250, 200}, {350, 200}});
+  rep->classify(g, d, {});
+  EXPECT_TRUE(rep->lastStats()[0].occluded);
+  EXPECT_GT(rep->lastStats()[0].center_std, 0.3f);
+  EXPECT_EQ(g.meta[1].reason, KpReason::Occluded);
+}
+
+TEST(DepthRepopulation, SharedAreaOfOverlappingBoxesIsIgnored) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.0f));
+  depth(cv::Rect(250, 100, 100, 300)).setTo(1.5f);  // person A
+  depth(cv::Rect(370, 200, 80, 200)).setTo(0.8f);   // person B, partly inside A's box
+  Detections d;
+  d.boxes = {box(200, 100, 200, 300, 1), box(360, 150, 150, 250, 1)};
+  Frame f = depthFrame(depth, {{220, 150}});
+  auto with = makeClassifier<DepthRepopulation>("DepthRepopulation");
+  with->classify(f, d, {});
+  EXPECT_FLOAT_EQ(with->lastStats()[0].min, 1.5f);
+  EXPECT_FLOAT_EQ(with->lastStats()[1].min, 0.8f);
+  auto without = makeClassifier<DepthRepopulation>("DepthRepopulation", "exclude_overlap: false");
+  Frame g = depthFrame(depth, {{220, 150}});
+  without->classify(g, d, {});
+  EXPECT_FLOAT_EQ(without->lastStats()[0].min, 0.8f);  // B leaks into A's statistics
+}
+
+TEST(DepthRepopulation, KeypointDepthsWithoutDepthImage) {
+  Detections d;
+  d.boxes = {box(200, 100, 200, 300, 1)};
+  std::vector<cv::Point2f> pts;
+  std::vector<float> z;
+  for (int i = 0; i < 30; i++) {  // 15 on the person (1.5 m), 15 on the wall (4 m) at the box's left border
+    const float x = i < 15 ? 260.f + 3.f * static_cast<float>(i) : 210.f;
+    pts.emplace_back(x, 110.f + 9.f * static_cast<float>(i));
+    z.push_back(i < 15 ? 1.5f : 4.0f);
+  }
+  Frame f = makeFrame(pts);
+  f.depth = z;
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", "min_samples: 10\ncenter_fraction: 0.5");
+  rep->classify(f, d, {});
+  EXPECT_EQ(rep->lastStats()[0].samples, 30);
+  for (size_t i = 0; i < pts.size(); i++) EXPECT_EQ(f.meta[i].label, i < 15 ? KpLabel::Dynamic : KpLabel::Static) << i;
+}
+
+// ---------------------------------------------------------------------------
+// EKF object tracker: a camera moving at 0.2 m/s along x; a chair static in
+// the world and a person walking at 0.5 m/s along world x.
+
+namespace {
+
+struct Obj {
+  int cls;
+  Eigen::Vector3d p0, v;  // world
+  double w, h;            // metres
+};
+
+struct Scene {
+  CameraModel cam = pinhole();
+  std::vector<Obj> objs;
+  SE3 pose(int k) const { return SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.2 * k / 30.0, 0, 0)); }
+  double time(int k) const { return k / 30.0; }
+
+  void make(int k, Frame& f, Detections& d, std::vector<int> visible = {}) const {
+    cv::Mat depth(480, 640, CV_32F, cv::Scalar(6.0f));
+    std::vector<cv::Point2f> pts = {{20, 20}};
+    d = Detections{};
+    d.frame_index = k;
+    const SE3 T_cw = pose(k).inverse();
+    for (size_t o = 0; o < objs.size(); o++) {
+      if (!visible.empty() && !visible[o]) continue;
+      const Eigen::Vector3d pc = T_cw * (objs[o].p0 + time(k) * objs[o].v);
+      const Eigen::Vector2d uv = cam.left.project(pc);
+      const double bw = cam.left.fx * objs[o].w / pc.z(), bh = cam.left.fy * objs[o].h / pc.z();
+      const cv::Rect2f b(static_cast<float>(uv.x() - bw / 2), static_cast<float>(uv.y() - bh / 2),
+                         static_cast<float>(bw), static_cast<float>(bh));
+      d.boxes.push_back(box(b.x, b.y, b.width, b.height, objs[o].cls));
+      cv::Rect r(cv::Point(static_cast<int>(std::floor(b.x)), static_cast<int>(std::floor(b.y))),
+                 cv::Point(static_cast<int>(std::ceil(b.x + b.width)), static_cast<int>(std::ceil(b.y + b.height))));
+      depth(r & cv::Rect(0, 0, 640, 480)).setTo(static_cast<float>(pc.z()));
+      pts.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()));
+    }
+    f = makeFrame(pts, {640, 480}, k, time(k));
+    f.input.depth = depth;
+    for (size_t i = 0; i < pts.size(); i++)
+      f.depth[i] = depth.at<float>(static_cast<int>(pts[i].y), static_cast<int>(pts[i].x));
+  }
+};
+
+}  // namespace
+
+TEST(EkfObjectTracker, FlagsMovingObjectNotStaticOne) {
+  Scene s;
+  s.objs = {{62, {0.3, 0.2, 3.0}, {0, 0, 0}, 0.5, 0.8}, {1, {-0.8, 0.0, 2.5}, {0.5, 0, 0}, 0.5, 1.7}};
+  auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "", &s.cam);
+  std::vector<KeypointMeta> chair, person;
+  for (int k = 0; k < 45; k++) {
+    Frame f;
+    Detections d;
+    s.make(k, f, d);
+    ClassifierContext ctx;
+    ctx.camera = &s.cam;
+    if (k > 0) ctx.previous_T_wc = s.pose(k - 1);
+    ekf->classify(f, d, ctx);
+    chair.push_back(f.meta[1]);
+    person.push_back(f.meta[2]);
+    EXPECT_EQ(f.meta[0].label, KpLabel::Static);  // background
+    ekf->afterTracking(f, d, s.pose(k));
+  }
+  // New objects are dynamic until proven static: the chair needs 5 slow updates after its first sighting.
+  for (int k = 0; k <= 5; k++) {
+    EXPECT_EQ(chair[k].label, KpLabel::Dynamic) << k;
+    EXPECT_EQ(chair[k].reason, KpReason::NewObject) << k;
+  }
+  for (int k = 6; k < 45; k++) {
+    EXPECT_EQ(chair[k].label, KpLabel::Movable) << k;
+    EXPECT_EQ(chair[k].reason, KpReason::OnObject) << k;
+  }
+  // The person is dynamic throughout, moving once the filter has its speed.
+  for (int k = 0; k < 45; k++) EXPECT_EQ(person[k].label, KpLabel::Dynamic) << k;
+  for (int k = 10; k < 45; k++) EXPECT_EQ(person[k].reason, KpReason::ObjectMoving) << k;
+
+  ASSERT_EQ(ekf->tracks().size(), 2u);  // one track per object: association held over 45 frames
+  const TrackedObject* tc = ekf->track(chair.back().object_id);
+  const TrackedObject* tp = ekf->track(person.back().object_id);
+  ASSERT_TRUE(tc && tp);
+  EXPECT_EQ(tc->class_id, 62);
+  EXPECT_EQ(tp->class_id, 1);
+  EXPECT_EQ(tc->updates, 45);
+  EXPECT_FALSE(tc->dynamic);
+  EXPECT_TRUE(tp->dynamic);
+  EXPECT_LT(tc->speed(), 0.01);
+  EXPECT_NEAR(tp->speed(), 0.5, 0.05);
+  EXPECT_NEAR(tp->x(3), 0.5, 0.05);
+  EXPECT_NEAR(tc->x(0), 0.3, 1e-3);
+  EXPECT_NEAR(tc->x(1), 0.2, 1e-3);
+  EXPECT_NEAR(tc->x(2), 3.0, 1e-3);
+  EXPECT_NEAR(tp->x(0), -0.8 + 0.5 * 44 / 30.0, 0.01);
+  // Class-specific process noise: the person's velocity stays more uncertain than the chair's.
+  EXPECT_GT(tp->P(3, 3), 2.0 * tc->P(3, 3));
+}
+
+TEST(EkfObjectTracker, ClassNoiseAndThresholdParameters) {
+  auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker");
+  EXPECT_DOUBLE_EQ(ekf->sigmaAccel(1), 0.5);    // person
+  EXPECT_DOUBLE_EQ(ekf->sigmaAccel(62), 0.02);  // chair
+  EXPECT_DOUBLE_EQ(ekf->sigmaAccel(3), 0.01);   // car: other
+  EXPECT_DOUBLE_EQ(ekf->speedThreshold(1), 0.2);
+  EXPECT_DOUBLE_EQ(ekf->speedThreshold(62), 0.1);
+  auto custom = makeClassifier<EkfObjectTracker>(
+      "EkfObjectTracker", "sigma_accel: {person: 1.0, \"dining table\": 0.005, default: 0.03}\n"
+                          "speed_threshold: {62: 0.05, default: 0.2}");
+  EXPECT_DOUBLE_EQ(custom->sigmaAccel(1), 1.0);
+  EXPECT_DOUBLE_EQ(custom->sigmaAccel(67), 0.005);
+  EXPECT_DOUBLE_EQ(custom->sigmaAccel(62), 0.03);
+  EXPECT_DOUBLE_EQ(custom->speedThreshold(62), 0.05);
+}
+
+TEST(EkfObjectTracker, SlowChairBelowItsThresholdIsStaticAboveIsMoving) {
+  // The same 0.15 m/s object: static for a person threshold (0.2), moving as a chair (0.1).
+  for (int cls : {1, 62}) {
+    Scene s;
+    s.objs = {{cls, {0.0, 0.0, 3.0}, {0.15, 0, 0}, 0.5, 1.0}};
+    auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "", &s.cam);
+    for (int k = 0; k < 90; k++) {
+      Frame f;
+      Detections d;
+      s.make(k, f, d);
+      ClassifierContext ctx;
+      ctx.camera = &s.cam;
+      ekf->classify(f, d, ctx);
+      ekf->afterTracking(f, d, s.pose(k));
+    }
+    ASSERT_EQ(ekf->tracks().size(), 1u);
+    EXPECT_NEAR(ekf->tracks()[0].speed(), 0.15, 0.02) << cls;
+    EXPECT_EQ(ekf->tracks()[0].dynamic, cls == 62) << cls;
+  }
+}
+
+TEST(EkfObjectTracker, LostTrackIsDroppedAndComesBackAsNew) {
+  Scene s;
+  s.objs = {{62, {0.3, 0.2, 3.0}, {0, 0, 0}, 0.5, 0.8}};
+  auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "max_missed: 3", &s.cam);
+  int first_id = -1;
+  KeypointMeta last;
+  for (int k = 0; k < 20; k++) {
+    Frame f;
+    Detections d;
+    const bool vis = k < 10 || k >= 14;  // unseen for 4 frames
+    s.make(k, f, d, {vis ? 1 : 0});
+    ClassifierContext ctx;
+    ctx.camera = &s.cam;
+    ekf->classify(f, d, ctx);
+    if (vis) last = f.meta[1];
+    if (k == 9) {
+      EXPECT_EQ(f.meta[1].label, KpLabel::Movable);
+      first_id = f.meta[1].object_id;
+    }
+    if (k == 14) {
+      EXPECT_EQ(f.meta[1].label, KpLabel::Dynamic);
+      EXPECT_EQ(f.meta[1].reason, KpReason::NewObject);
+      EXPECT_NE(f.meta[1].object_id, first_id);
+    }
+    ekf->afterTracking(f, d, s.pose(k));
+    if (k == 12) {
+      EXPECT_EQ(ekf->tracks().size(), 1u);  // missed 3 times: kept
+    }
+    if (k == 13) {
+      EXPECT_EQ(ekf->tracks().size(), 0u);  // 4th miss: dropped
+    }
+  }
+  EXPECT_EQ(last.label, KpLabel::Dynamic);  // 6 frames after its return it is still being proven static
+  ekf->reset();
+  EXPECT_TRUE(ekf->tracks().empty());
+}
