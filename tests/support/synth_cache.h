@@ -15,7 +15,9 @@ namespace dslam::test {
 inline std::string syntheticSequence(const std::string& scenario, int frames, int width, int height,
                                      bool noise = true, uint64_t seed = 0) {
   namespace fs = std::filesystem;
-  const std::string key = scenario + "_" + std::to_string(frames) + "_" + std::to_string(width) + "x" +
+  // Bump kLayout when the synth output layout changes (cached folders are reused).
+  constexpr int kLayout = 2;
+  const std::string key = "v" + std::to_string(kLayout) + "_" + scenario + "_" + std::to_string(frames) + "_" + std::to_string(width) + "x" +
                           std::to_string(height) + (noise ? "" : "_nonoise") + (seed ? "_s" + std::to_string(seed) : "");
   const fs::path root = fs::path(DSLAM_TEST_BINARY_DIR) / "test_data";
   const fs::path dir = root / key;

@@ -62,11 +62,12 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   if (pc.dataset) dc = *pc.dataset;
   if (!ov.dataset.empty()) {
     if (!fs::exists(ov.dataset)) throw DataError("dataset not found: " + ov.dataset);
-    const std::string detected = config::detectDatasetType(ov.dataset);
-    if (pc.dataset && (detected.empty() || detected == pc.dataset->type || pc.dataset->type == "dslam::BonnDataset")) {
+    if (pc.dataset) {
+      // The file's reader and parameters; only the path changes.
       dc.type = pc.dataset->type;
       dc.params = pc.dataset->params;
     } else {
+      const std::string detected = config::detectDatasetType(ov.dataset);
       if (detected.empty())
         throw DataError("cannot tell the dataset type of " + ov.dataset +
                         " (expected a TUM/Bonn folder with rgb.txt, a KITTI folder with calib.txt, an EuRoC folder with "

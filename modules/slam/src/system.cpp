@@ -255,6 +255,7 @@ FrameResult System::track(const SensorFrame& in) {
     ctx.camera = &frontend_->camera();
     ctx.previous = prev_frame_ ? &*prev_frame_ : nullptr;
     ctx.previous_T_wc = prev_T_wc_;
+    if (auto pred = tracker_->predictedPose()) ctx.predicted_T_wc = pred->inverse();
     ctx.base_feature_count = base_features_;
     static const Detections kNone;
     int want = 0;

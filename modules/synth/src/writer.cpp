@@ -188,6 +188,13 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
   writeText((root / "times.txt").string(), times.str());
   traj::writeTum((root / "groundtruth.txt").string(), gt,
                  "ground truth of dslam synth scenario '" + s.name + "' (camera pose T_wc: tx ty tz qx qy qz qw)");
+  if (opt.right) {
+    // KITTI-style ground truth (3x4 T_wc per frame, paired with times.txt) so
+    // that the folder is also a complete stereo sequence for KittiDataset.
+    traj::WriteOptions kw;
+    kw.format = traj::Format::Kitti;
+    traj::write((root / "poses.txt").string(), gt, kw);
+  }
   const CameraModel cam = R.cameraModel();
   writeText((root / "camera.yaml").string(),
             "# Camera of this synthetic sequence (dslam camera section)\n" + config::cameraToYaml(cam));

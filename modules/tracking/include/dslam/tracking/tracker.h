@@ -81,6 +81,11 @@ class Tracker {
   TrackResult track(Frame frame);
 
   TrackState state() const { return state_; }
+  /** Constant-velocity prediction of the next frame's T_cw (nullopt unless tracking is OK). */
+  std::optional<SE3> predictedPose() const {
+    if (state_ != TrackState::Ok || !last_.T_cw) return std::nullopt;
+    return velocity_ ? *velocity_ * *last_.T_cw : *last_.T_cw;
+  }
   const TrackedFrame& lastFrame() const { return last_; }
   KeyFrame* referenceKeyFrame() const { return ref_kf_; }
   const std::vector<MapPointPtr>& localPoints() const { return local_points_; }
