@@ -38,6 +38,7 @@ for s in "${SCENES[@]}"; do
   for p in "${PIPES[@]}"; do
     name=$(basename "$p" .yaml)
     out="$WORK/runs/$s/$name"
+    mkdir -p "$WORK/runs/$s"
     echo "== $name on $s" >&2
     "$DSLAM" run "$p" --dataset "$dir" --out "$out" --no-progress > "$out.log" 2>&1 || echo "   FAILED (see $out.log)" >&2
   done

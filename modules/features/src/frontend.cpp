@@ -83,7 +83,8 @@ void computeRgbdDepth(const std::vector<cv::KeyPoint>& kps, const std::vector<cv
   if (type == CV_16UC1 && !(depth_factor > 0))
     throw DataError("RGB-D depth: depth_factor must be > 0 for a CV_16U depth image");
   for (size_t i = 0; i < n; i++) {
-    const int u = static_cast<int>(kps[i].pt.x), v = static_cast<int>(kps[i].pt.y);
+    // Nearest pixel (ORB-SLAM2 truncates, which biases depth on slanted surfaces by half a pixel).
+    const int u = cvRound(kps[i].pt.x), v = cvRound(kps[i].pt.y);
     if (u < 0 || v < 0 || u >= depth_image.cols || v >= depth_image.rows) continue;
     const float d = type == CV_32FC1 ? depth_image.at<float>(v, u)
                                      : static_cast<float>(depth_image.at<uint16_t>(v, u) / depth_factor);

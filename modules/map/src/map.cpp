@@ -42,6 +42,27 @@ MapPointPtr Map::point(int64_t i) const {
   return it == points_.end() ? nullptr : it->second;
 }
 
+void Map::absorb(Map& other, const SE3& T_this_other) {
+  const SE3 T_other_this = T_this_other.inverse();
+  for (auto& [id, kf] : other.all_kfs_) {
+    kf->setPose(kf->T_cw() * T_other_this);
+    kf->map = this;
+    all_kfs_[id] = kf;
+    if (other.kfs_.count(id)) kfs_[id] = kf;
+  }
+  for (auto& [id, p] : other.points_) {
+    p->pos = T_this_other * p->pos;
+    p->normal = T_this_other.rotation() * p->normal;
+    p->map = this;
+    points_[id] = p;
+  }
+  other.kfs_.clear();
+  other.all_kfs_.clear();
+  other.points_.clear();
+  other.reference_points.clear();
+  other.origin_.reset();
+}
+
 void Map::clear() {
   // Break shared_ptr cycles (points <-> replaced links, keyframe point slots).
   for (auto& [i, kf] : all_kfs_) {

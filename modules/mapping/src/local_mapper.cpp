@@ -139,12 +139,15 @@ void LocalMapper::run() {
 
 void LocalMapper::processOne(const KeyFramePtr& kf) {
   cur_ = kf;
+  map_ = kf->map;
+  if (!map_) return;
   abort_ba_ = false;
   const int fr = kf->frame_index;
   const double t0 = nowSeconds();
   {
     std::lock_guard<std::recursive_mutex> lk(map_->update_mutex);
     if (kf->bad) return;
+    if (bow_fn_) bow_fn_(kf.get());
     {
       const double tk = nowSeconds();
       processNewKeyFrame();
@@ -310,7 +313,7 @@ void LocalMapper::createNewMapPoints() {
       const double ratio_dist = d2 / d1;
       const double ratio_oct = sc.scale[kp1.octave] / sc.scale[kp2.octave];
       if (ratio_dist * ratio_factor < ratio_oct || ratio_dist > ratio_oct * ratio_factor) continue;
-      auto mp = std::make_shared<MapPoint>(Map::nextPointId(), X, kf1, map_.get());
+      auto mp = std::make_shared<MapPoint>(Map::nextPointId(), X, kf1, map_);
       const auto& m = kf1->meta.empty() ? KeypointMeta{} : kf1->meta[i1];
       mp->class_id = m.class_id;
       mp->object_id = m.object_id;

@@ -128,10 +128,9 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   }
   for (const auto* m : pc.modulesOf("MapManager"))
     if (!maps) maps = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
-  if (maps && !ov.load_atlas.empty()) maps->load(ov.load_atlas);
-  else if (!ov.load_atlas.empty()) throw ConfigError("--load-atlas needs a MapManager module (dslam::Atlas) in the pipeline");
 
   System sys(*cam, sp, backend, pc.mode, maps);
+  if (!ov.load_atlas.empty()) sys.loadMaps(ov.load_atlas);
   for (const auto* m : pc.modulesOf("Detector")) {
     auto d = std::dynamic_pointer_cast<Detector>(makeModule(*m, base));
     sys.addDetector(m->name, d, 1);
@@ -147,6 +146,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
 
   EventLog ev;
   ev.open(outPath("events"));
+  sys.setEventSink([&ev](const std::string& json) { ev.write(json); });
 
   // ---- frame loop ---------------------------------------------------------
   const size_t n_all = reader->size();
@@ -194,6 +194,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
     DSLAM_LOG(Error, "run stopped after " << done << " frames; writing the results so far to " << out);
   }
   sys.shutdown();
+  sys.setEventSink(nullptr);
   sum.wall_s = nowSeconds() - wall0;
   if (!ov.quiet_progress) progress.finish();
 
@@ -224,9 +225,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
     sys.timer().writeCsv(tc);
     sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());
   }
-  if (maps) {
-    if (const std::string ap = outPath("atlas"); !ap.empty()) maps->save(ap);
-  }
+  if (const std::string ap = outPath("atlas"); !ap.empty()) sys.mapManager().save(ap);
 
   sum.keyframes = kft.size();
   sum.map_points = sys.map()->numPoints();

@@ -3,11 +3,14 @@
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
+#include "dslam/map/atlas.h"
 #include "dslam/map/map.h"
+#include "dslam/place_recognition/vocabulary.h"
 
 namespace dslam {
 
@@ -22,6 +25,36 @@ void registerSlamSections() {
                           "Tracking: initialisation, motion model, local map, keyframe decision (ORB-SLAM2 defaults).");
   config::registerSection("mapping", &LocalMapperParams::specs,
                           "Local mapping: triangulation, culling, local bundle adjustment (ORB-SLAM2 defaults).");
+  config::registerSection("place_recognition", &PlaceRecognitionParams::specs,
+                          "Vocabulary and keyframe database (BoW relocalisation, loop detection) and the map policy "
+                          "of the atlas when tracking is lost.");
+  config::registerSection("loop_closing", &LoopClosingParams::specs,
+                          "Loop closing and map merging (ORB-SLAM2/3 defaults, SE(3) for stereo / RGB-D).");
+}
+
+std::vector<ParamSpec> PlaceRecognitionParams::specs() {
+  PlaceRecognitionParams d;
+  return {
+      P_bool("enabled", d.enabled, "load a vocabulary: keyframe database, BoW matching, relocalisation and loop detection"),
+      P_path("vocabulary", "", "vocabulary file (dslam binary, ORBvoc.txt, DBoW2/3 .yml[.gz]); '' = the shipped default or $DSLAM_VOCABULARY"),
+      P_int("new_map_after_lost", d.new_map_after_lost,
+            "frames with tracking lost and relocalisation failing before a new map is started (ORB-SLAM3 waits ~3 s)", 1),
+      P_int("min_keyframes_keep_map", d.min_keyframes_keep_map,
+            "a lost map with fewer keyframes is discarded instead of kept in the atlas (ORB-SLAM3: 10)", 0),
+      P_int("loop_check_every", d.loop_check_every,
+            "query the keyframe database with every N-th tracked frame; a possible loop or merge makes the next "
+            "frame a keyframe so that loop closing sees it at once (0 = only keyframes are queried, as ORB-SLAM)", 0),
+  };
+}
+
+PlaceRecognitionParams PlaceRecognitionParams::fromParams(const Params& p) {
+  PlaceRecognitionParams r;
+  r.enabled = p.getBool("enabled");
+  r.vocabulary = p.getString("vocabulary");
+  r.new_map_after_lost = static_cast<int>(p.getInt("new_map_after_lost"));
+  r.min_keyframes_keep_map = static_cast<int>(p.getInt("min_keyframes_keep_map"));
+  r.loop_check_every = static_cast<int>(p.getInt("loop_check_every"));
+  return r;
 }
 
 SlamParams SlamParams::fromConfig(const config::PipelineConfig& pc) {
@@ -34,41 +67,13 @@ SlamParams SlamParams::fromConfig(const config::PipelineConfig& pc) {
   p.frontend = FrontendParams::fromParams(sec("features"));
   p.tracker = TrackerParams::fromParams(sec("tracking"));
   p.mapper = LocalMapperParams::fromParams(sec("mapping"));
+  p.place = PlaceRecognitionParams::fromParams(sec("place_recognition"));
+  p.loop = LoopClosingParams::fromParams(sec("loop_closing"));
+  p.loop.seed = pc.seed;
   return p;
 }
 
-// ---------------------------------------------------------------------------
-// Single-map manager used when the pipeline configures none.
-// ---------------------------------------------------------------------------
-
-namespace {
-class SingleMapManager : public MapManager {
-  DEFINE_MRPT_OBJECT(SingleMapManager, dslam)
- public:
-  SingleMapManager() { reset(); }
-  std::string description() const override { return "one map, no save/load (internal default)"; }
-  std::shared_ptr<Map> currentMap() override { return map_; }
-  std::shared_ptr<Map> createMap() override {
-    map_ = std::make_shared<Map>(next_id_++);
-    return map_;
-  }
-  std::vector<std::shared_ptr<Map>> maps() const override { return {map_}; }
-  void reset() override { createMap(); }
-  void save(const std::string&) const override {
-    throw Error("the default map manager cannot save maps: configure a dslam::Atlas module");
-  }
-  void load(const std::string&) override {
-    throw Error("the default map manager cannot load maps: configure a dslam::Atlas module");
-  }
-
- private:
-  std::shared_ptr<Map> map_;
-  int64_t next_id_ = 0;
-};
-}  // namespace
 }  // namespace dslam
-
-IMPLEMENTS_MRPT_OBJECT(SingleMapManager, MapManager, dslam)
 
 namespace dslam {
 
@@ -155,7 +160,7 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
     throw ConfigError("monocular SLAM is not implemented yet: use an RGB-D or stereo camera");
   frontend_ = std::make_unique<FeatureFrontend>(camera, p_.frontend);
   base_features_ = p_.frontend.orb.n_features;
-  if (!maps_) maps_ = std::make_shared<SingleMapManager>();
+  if (!maps_) maps_ = std::make_shared<Atlas>();
   const CameraModel& cam = frontend_->camera();
   CameraIntrinsics ci;
   ci.fx = static_cast<float>(cam.left.fx);
@@ -167,16 +172,127 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
   ci.bf = static_cast<float>(cam.bf());
   ci.close_depth = static_cast<float>(cam.closeDepth());
   ci.bounds = frontend_->imageBounds();
-  auto scale = std::make_shared<ScaleLevels>(ScaleLevels::make(p_.frontend.orb.n_levels, p_.frontend.orb.scale_factor));
+  auto scale = std::make_shared<const ScaleLevels>(ScaleLevels::make(p_.frontend.orb.n_levels, p_.frontend.orb.scale_factor));
+  intrinsics_ = ci;
+  scale_ = scale;
   if (p_.tracker.max_frames <= 0) p_.tracker.max_frames = std::max(1, static_cast<int>(std::lround(cam.fps)));
   p_.tracker.sensor = cam.sensor;
   p_.mapper.monocular = false;
   mapper_ = std::make_unique<LocalMapper>(p_.mapper, backend_, &timer_);
   tracker_ = std::make_unique<Tracker>(p_.tracker, ci, scale, mapper_.get());
-  auto m = maps_->currentMap();
-  mapper_->setMap(m);
+  tracker_->setMap(maps_->currentMap());
+  if (p_.place.enabled) {
+    const std::string vpath = p_.place.vocabulary.empty() ? defaultVocabularyPath() : p_.place.vocabulary;
+    const double tv = nowSeconds();
+    auto voc = std::make_shared<const Vocabulary>(Vocabulary::load(vpath));
+    DSLAM_LOG(Debug, "vocabulary " << vpath << " loaded in " << (nowSeconds() - tv) * 1e3 << " ms (" << voc->size()
+                                   << " words)");
+    kfdb_ = std::make_shared<KeyFrameDatabase>(voc);
+    auto db = kfdb_;
+    mapper_->setBowFunction([db](KeyFrame* kf) { db->computeBow(kf); });
+    tracker_->setBowFunction([db](TrackedFrame& f) { db->computeBow(f.f.descriptors, f.bow, f.feat); });
+    tracker_->setRelocCandidates([db, this](const TrackedFrame& f) {
+      return db->detectRelocalizationCandidates(f.bow, tracker_->map().get());
+    });
+    loop_ = std::make_unique<LoopCloser>(p_.loop, backend_, kfdb_, maps_.get(), mapper_.get(), &timer_);
+    loop_->setEventCallback([this](const LoopEvent& e) {
+      if (on_event_) on_event_(e.json());
+    });
+    LoopCloser* lc = loop_.get();
+    mapper_->setKeyFrameCallback([lc](const KeyFramePtr& kf) { lc->insertKeyFrame(kf); });
+  } else if (p_.loop.enabled) {
+    DSLAM_LOG(Info, "loop closing needs place_recognition.enabled: disabled");
+  }
+  if (mode_ == config::Mode::Parallel) {
+    mapper_->start();
+    if (loop_) loop_->start();
+  }
+}
+
+void System::indexKeyFrames() {
+  if (!kfdb_) return;
+  for (const auto& m : maps_->maps()) {
+    std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
+    for (const auto& [id, kf] : m->keyframes()) {
+      kfdb_->computeBow(kf.get());
+      kfdb_->add(kf.get());
+    }
+  }
+}
+
+void System::loadMaps(const std::string& path) {
+  if (frames_ > 0) throw Error("loadMaps() must be called before the first frame");
+  if (auto* atlas = dynamic_cast<Atlas*>(maps_.get())) atlas->setExpectedCamera(intrinsics_, scale_);
+  maps_->load(path);
+  if (kfdb_) kfdb_->clear();
+  indexKeyFrames();
+  tracker_->reset();
+  tracker_->setMap(maps_->currentMap());
+}
+
+void System::checkPlaceRecognition(const TrackResult& r) {
+  (void)r;
+  if (!loop_ || !p_.loop.enabled || p_.place.loop_check_every <= 0 || p_.tracker.localization_only) return;
+  if (frames_ % static_cast<size_t>(p_.place.loop_check_every) != 0) return;
+  const double t0 = nowSeconds();
+  const TrackedFrame& f = tracker_->lastFrame();
+  KeyFrame* ref = tracker_->referenceKeyFrame();
+  if (!ref || f.f.descriptors.empty()) return;
+  auto map = tracker_->map();
+  std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
+  BowVector bow;
+  FeatureVector feat;
+  kfdb_->computeBow(f.f.descriptors, bow, feat);
+  // As loop detection: the weakest score among the reference keyframe's
+  // neighbourhood is the bar; candidates outside it that pass hint a loop.
+  std::set<int64_t> near;
+  near.insert(ref->id);
+  double min_score = ref->bow.empty() ? 1.0 : kfdb_->vocabulary().score(bow, ref->bow);
+  for (KeyFrame* c : ref->covisibles()) {
+    near.insert(c->id);
+    if (!c->bow.empty()) min_score = std::min(min_score, kfdb_->vocabulary().score(bow, c->bow));
+  }
+  for (KeyFrame* c : kfdb_->detectRelocalizationCandidates(bow, nullptr)) {
+    if (near.count(c->id)) continue;
+    if (kfdb_->vocabulary().score(bow, c->bow) < min_score) continue;
+    tracker_->requestKeyFrame();
+    DSLAM_LOG(Debug, "frame " << f.f.index() << ": keyframe " << c->id << " (map " << c->map->id
+                              << ") looks like a revisit: next frame becomes a keyframe");
+    break;
+  }
+  timer_.add("place_check", f.f.index(), (nowSeconds() - t0) * 1e3);
+}
+
+void System::switchToNewMap(int frame) {
+  auto old = maps_->currentMap();
+  // Let local mapping and loop closing finish with the old map first.
+  if (mode_ == config::Mode::Parallel) {
+    mapper_->requestPause();
+    mapper_->resume();
+    if (loop_) loop_->waitIdle();
+  }
+  const size_t n_kf = old->numKeyFrames();
+  std::string what;
+  if (n_kf < static_cast<size_t>(p_.place.min_keyframes_keep_map)) {
+    if (kfdb_)
+      for (const auto& [id, kf] : old->allKeyFramesEver()) kfdb_->erase(kf.get());
+    tracker_->forgetMap(old.get());
+    mapper_->reset();
+    maps_->eraseMap(old);
+    what = "discarded map " + std::to_string(old->id) + " (" + std::to_string(n_kf) + " keyframes)";
+  } else {
+    what = "kept map " + std::to_string(old->id) + " (" + std::to_string(n_kf) + " keyframes)";
+  }
+  auto m = maps_->createMap();
+  tracker_->reset();
   tracker_->setMap(m);
-  if (mode_ == config::Mode::Parallel) mapper_->start();
+  DSLAM_LOG(Info, "tracking lost for " << lost_frames_ << " frames: new map " << m->id << " at frame " << frame << "; "
+                                       << what);
+  if (on_event_)
+    on_event_("{\"event\": \"new_map\", \"frame\": " + std::to_string(frame) + ", \"map\": " + std::to_string(m->id) +
+              ", \"previous_map\": " + std::to_string(old->id) + ", \"previous_kept\": " +
+              (n_kf < static_cast<size_t>(p_.place.min_keyframes_keep_map) ? "false" : "true") + "}");
+  lost_frames_ = 0;
 }
 
 System::~System() { shutdown(); }
@@ -292,7 +408,17 @@ FrameResult System::track(const SensorFrame& in) {
   res.ms_total = (nowSeconds() - t0) * 1e3;
   timer_.add("frame", fi, res.ms_total);
 
-  if (mode_ == config::Mode::Sequential) mapper_->processAll();
+  if (res.track.state == TrackState::Ok && !res.track.keyframe) checkPlaceRecognition(res.track);
+  if (mode_ == config::Mode::Sequential) {
+    mapper_->processAll();
+    if (loop_) loop_->processAll();
+  }
+  if (res.track.state == TrackState::Lost && !p_.tracker.localization_only) {
+    lost_frames_++;
+    if (lost_frames_ >= p_.place.new_map_after_lost && maps_->currentMap()->numKeyFrames() > 0) switchToNewMap(fi);
+  } else {
+    lost_frames_ = 0;
+  }
 
   if (keep_prev) prev_frame_ = std::move(copy);
   prev_dets_ = std::move(dets);
@@ -306,6 +432,11 @@ void System::shutdown() {
   shut_ = true;
   if (mode_ == config::Mode::Parallel) mapper_->stop();
   mapper_->processAll();
+  if (loop_) {
+    loop_->waitIdle();
+    loop_->stop();
+    loop_->processAll();
+  }
   detectors_.clear();
 }
 

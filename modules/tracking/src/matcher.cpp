@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "dslam/features/descriptor.h"
 #include "dslam/map/map.h"
@@ -249,6 +250,240 @@ int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
       F.points[ids[k]].reset();
       n--;
     }
+  return n;
+}
+
+int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
+  if (kf->feat.empty() || F.feat.empty()) return searchByDescriptors(kf, F);
+  std::vector<float> rot;
+  std::vector<int> ids;
+  std::vector<int> best_for_f(F.size(), 256);
+  std::vector<int> kf_for_f(F.size(), -1);
+  auto it1 = kf->feat.begin(), end1 = kf->feat.end();
+  auto it2 = F.feat.begin(), end2 = F.feat.end();
+  while (it1 != end1 && it2 != end2) {
+    if (it1->node < it2->node) {
+      ++it1;
+      continue;
+    }
+    if (it2->node < it1->node) {
+      ++it2;
+      continue;
+    }
+    for (uint32_t i : it1->features) {
+      const MapPointPtr& mp = kf->points[i];
+      if (!mp || mp->bad || !mp->active) continue;
+      const uint8_t* dk = kf->descriptors.ptr<uint8_t>(static_cast<int>(i));
+      int b1 = 256, b2 = 256, bi = -1;
+      for (uint32_t j : it2->features) {
+        if (!F.usable(j)) continue;
+        const int d = descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j)));
+        if (d < b1) {
+          b2 = b1;
+          b1 = d;
+          bi = static_cast<int>(j);
+        } else if (d < b2) {
+          b2 = d;
+        }
+      }
+      if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) continue;
+      if (b1 < best_for_f[bi]) {
+        best_for_f[bi] = b1;
+        kf_for_f[bi] = static_cast<int>(i);
+      }
+    }
+    ++it1;
+    ++it2;
+  }
+  int n = 0;
+  for (size_t j = 0; j < F.size(); j++) {
+    if (kf_for_f[j] < 0) continue;
+    F.points[j] = kf->points[kf_for_f[j]];
+    ids.push_back(static_cast<int>(j));
+    rot.push_back(kf->keys_un[kf_for_f[j]].angle - F.f.keypoints_un[j].angle);
+    n++;
+  }
+  std::vector<bool> keep;
+  orientationFilter(rot, ids, keep);
+  for (size_t k = 0; k < ids.size(); k++)
+    if (!keep[k]) {
+      F.points[ids[k]].reset();
+      n--;
+    }
+  return n;
+}
+
+int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12) const {
+  matches12.assign(kf1->size(), nullptr);
+  std::vector<char> used2(kf2->size(), 0);
+  std::vector<float> rot;
+  std::vector<int> ids;
+  auto tryPair = [&](uint32_t i, const std::vector<uint32_t>& cands) {
+    const MapPointPtr& mp1 = kf1->points[i];
+    if (!mp1 || mp1->bad || !kf1->usable(i)) return;
+    const uint8_t* d1 = kf1->descriptors.ptr<uint8_t>(static_cast<int>(i));
+    int b1 = 256, b2 = 256, bi = -1;
+    for (uint32_t j : cands) {
+      const MapPointPtr& mp2 = kf2->points[j];
+      if (used2[j] || !mp2 || mp2->bad || !mp2->active || !kf2->usable(j)) continue;
+      const int d = descriptorDistance(d1, kf2->descriptors.ptr<uint8_t>(static_cast<int>(j)));
+      if (d < b1) {
+        b2 = b1;
+        b1 = d;
+        bi = static_cast<int>(j);
+      } else if (d < b2) {
+        b2 = d;
+      }
+    }
+    if (bi < 0 || b1 >= p_.th_low || b1 >= p_.nn_ratio * b2) return;
+    matches12[i] = kf2->points[bi];
+    used2[bi] = 1;
+    ids.push_back(static_cast<int>(i));
+    rot.push_back(kf1->keys_un[i].angle - kf2->keys_un[bi].angle);
+  };
+  if (!kf1->feat.empty() && !kf2->feat.empty()) {
+    auto it1 = kf1->feat.begin(), end1 = kf1->feat.end();
+    auto it2 = kf2->feat.begin(), end2 = kf2->feat.end();
+    while (it1 != end1 && it2 != end2) {
+      if (it1->node < it2->node) {
+        ++it1;
+      } else if (it2->node < it1->node) {
+        ++it2;
+      } else {
+        for (uint32_t i : it1->features) tryPair(i, it2->features);
+        ++it1;
+        ++it2;
+      }
+    }
+  } else {
+    std::vector<uint32_t> all(kf2->size());
+    for (size_t j = 0; j < all.size(); j++) all[j] = static_cast<uint32_t>(j);
+    for (size_t i = 0; i < kf1->size(); i++) tryPair(static_cast<uint32_t>(i), all);
+  }
+  std::vector<bool> keep;
+  orientationFilter(rot, ids, keep);
+  int n = 0;
+  for (size_t k = 0; k < ids.size(); k++) {
+    if (!keep[k])
+      matches12[ids[k]].reset();
+    else
+      n++;
+  }
+  return n;
+}
+
+namespace {
+/** Best unmatched keypoint of kf for a point at camera coordinates Xc (or -1). */
+int bestInKeyFrame(const KeyFrame* kf, const MapPoint& mp, const Eigen::Vector3d& Xc, const Eigen::Vector3d& Ow_dir,
+                   float th, int max_dist, const std::function<bool(size_t)>& skip) {
+  if (Xc.z() <= 0) return -1;
+  const float invz = static_cast<float>(1.0 / Xc.z());
+  const float u = kf->cam.fx * static_cast<float>(Xc.x()) * invz + kf->cam.cx;
+  const float v = kf->cam.fy * static_cast<float>(Xc.y()) * invz + kf->cam.cy;
+  if (!kf->cam.bounds.contains(u, v)) return -1;
+  const float d3 = static_cast<float>(Ow_dir.norm());
+  if (d3 < 0.8f * mp.min_dist || d3 > 1.2f * mp.max_dist) return -1;
+  const auto& sc = *kf->scale;
+  const int level = mp.predictScale(d3, sc.log_scale_factor, sc.n_levels);
+  const float r = th * sc.scale[level];
+  int best = 256, best_idx = -1;
+  for (size_t idx : kf->grid.featuresInArea(u, v, r, level - 1, level + 1)) {
+    if (!kf->usable(idx) || skip(idx)) continue;
+    const int d = descriptorDistance(mp.desc.data(), kf->descriptors.ptr<uint8_t>(static_cast<int>(idx)));
+    if (d < best) {
+      best = d;
+      best_idx = static_cast<int>(idx);
+    }
+  }
+  return best <= max_dist ? best_idx : -1;
+}
+}  // namespace
+
+int Matcher::searchBySE3(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12, const SE3& T12,
+                         float th) const {
+  const SE3 T21 = T12.inverse();
+  std::set<const MapPoint*> already1, already2;
+  for (size_t i = 0; i < matches12.size(); i++)
+    if (matches12[i]) {
+      already2.insert(matches12[i].get());
+      if (kf1->points[i]) already1.insert(kf1->points[i].get());
+    }
+  // kf1's points into kf2.
+  std::vector<int> match1(kf1->size(), -1);
+  for (size_t i = 0; i < kf1->size(); i++) {
+    const MapPointPtr& mp = kf1->points[i];
+    if (!mp || mp->bad || matches12[i]) continue;
+    const Eigen::Vector3d X1 = kf1->T_cw() * mp->pos;
+    const Eigen::Vector3d X2 = T21 * X1;
+    match1[i] = bestInKeyFrame(kf2, *mp, X2, X2, th, p_.th_high, [&](size_t j) {
+      return !kf2->points[j] || kf2->points[j]->bad || already2.count(kf2->points[j].get());
+    });
+  }
+  // kf2's points into kf1.
+  std::vector<int> match2(kf2->size(), -1);
+  for (size_t j = 0; j < kf2->size(); j++) {
+    const MapPointPtr& mp = kf2->points[j];
+    if (!mp || mp->bad || already2.count(mp.get())) continue;
+    const Eigen::Vector3d X2 = kf2->T_cw() * mp->pos;
+    const Eigen::Vector3d X1 = T12 * X2;
+    match2[j] = bestInKeyFrame(kf1, *mp, X1, X1, th, p_.th_high, [&](size_t i) {
+      return !kf1->points[i] || kf1->points[i]->bad || matches12[i];
+    });
+  }
+  int n = 0;
+  for (size_t i = 0; i < kf1->size(); i++) {
+    const int j = match1[i];
+    if (j >= 0 && match2[j] == static_cast<int>(i)) {
+      matches12[i] = kf2->points[j];
+      n++;
+    }
+  }
+  return n;
+}
+
+int Matcher::searchByProjection(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>& points,
+                                std::vector<MapPointPtr>& matched, float th) const {
+  std::set<const MapPoint*> found;
+  for (const auto& m : matched)
+    if (m) found.insert(m.get());
+  const Eigen::Vector3d Ow = T_cw.inverse().translation();
+  int n = 0;
+  for (const auto& mp : points) {
+    if (!mp || mp->bad || found.count(mp.get())) continue;
+    const Eigen::Vector3d Xc = T_cw * mp->pos;
+    const Eigen::Vector3d PO = mp->pos - Ow;
+    if (PO.dot(mp->normal) < 0.5 * PO.norm()) continue;
+    const int idx = bestInKeyFrame(kf, *mp, Xc, PO, th, p_.th_low, [&](size_t i) { return matched[i] != nullptr; });
+    if (idx >= 0) {
+      matched[idx] = mp;
+      n++;
+    }
+  }
+  return n;
+}
+
+int Matcher::fuse(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>& points, float th,
+                  std::vector<MapPointPtr>& replace) const {
+  replace.assign(points.size(), nullptr);
+  const Eigen::Vector3d Ow = T_cw.inverse().translation();
+  int n = 0;
+  for (size_t k = 0; k < points.size(); k++) {
+    const MapPointPtr& mp = points[k];
+    if (!mp || mp->bad || mp->isIn(kf)) continue;
+    const Eigen::Vector3d Xc = T_cw * mp->pos;
+    const Eigen::Vector3d PO = mp->pos - Ow;
+    if (PO.dot(mp->normal) < 0.5 * PO.norm()) continue;
+    const int idx = bestInKeyFrame(kf, *mp, Xc, PO, th, p_.th_low, [](size_t) { return false; });
+    if (idx < 0) continue;
+    const MapPointPtr& in_kf = kf->points[idx];
+    if (in_kf && !in_kf->bad) {
+      if (in_kf != mp) replace[k] = in_kf;
+    } else {
+      mp->addObservation(kf, idx);
+      kf->addPoint(mp, idx);
+    }
+    n++;
+  }
   return n;
 }
 

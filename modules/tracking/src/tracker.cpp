@@ -75,14 +75,32 @@ void Tracker::reset() {
   local_points_.clear();
 }
 
+void Tracker::forgetMap(const Map* m) {
+  for (auto& r : records_)
+    if (r.ref && r.ref->map == m) {
+      r.ref = nullptr;
+      r.lost = true;
+    }
+}
+
 TrackResult Tracker::track(Frame frame) {
   frame_id_++;
   cur_ = TrackedFrame(std::move(frame), cam_, scale_);
   TrackResult res;
   std::unique_lock<std::recursive_mutex> lock(map_->update_mutex);
 
-  if (state_ == TrackState::NotInitialized) {
-    if (!p_.localization_only && initialize()) {
+  if (state_ == TrackState::NotInitialized && p_.localization_only) {
+    // A loaded map: the first frames are localised by relocalisation.
+    if (map_->numKeyFrames() > 0 && relocalize() && trackLocalMap()) {
+      state_ = TrackState::Ok;
+      res.method = "reloc";
+      res.relocalized = true;
+      velocity_.reset();
+      for (size_t i = 0; i < cur_.size(); i++)
+        if (cur_.points[i] && cur_.outlier[i]) cur_.points[i].reset();
+    }
+  } else if (state_ == TrackState::NotInitialized) {
+    if (initialize()) {
       res.initialized = true;
       res.keyframe = true;
       res.method = "init";
@@ -249,8 +267,9 @@ int Tracker::discardOutliers() {
 bool Tracker::trackReferenceKeyFrame() {
   if (!ref_kf_ || ref_kf_->bad) return false;
   std::fill(cur_.points.begin(), cur_.points.end(), nullptr);
+  if (bow_fn_ && cur_.bow.empty()) bow_fn_(cur_);
   Matcher m(0.7f, true);
-  const int n = m.searchByDescriptors(ref_kf_, cur_);
+  const int n = m.searchByBoW(ref_kf_, cur_);
   if (n < 15) return false;
   cur_.T_cw = last_.T_cw ? *last_.T_cw : ref_kf_->T_cw();
   optimizePose();
@@ -411,6 +430,7 @@ bool Tracker::trackLocalMap() {
 
 bool Tracker::relocalize() {
   std::vector<KeyFrame*> cands;
+  if (bow_fn_ && cur_.bow.empty()) bow_fn_(cur_);
   if (reloc_fn_) cands = reloc_fn_(cur_);
   if (cands.empty()) {
     // Without a keyframe database: the most recent keyframes of the map.
@@ -423,7 +443,7 @@ bool Tracker::relocalize() {
     if (kf->bad) continue;
     std::fill(cur_.points.begin(), cur_.points.end(), nullptr);
     std::fill(cur_.outlier.begin(), cur_.outlier.end(), 0);
-    if (m.searchByDescriptors(kf, cur_) < 15) continue;
+    if (m.searchByBoW(kf, cur_) < 15) continue;
     std::vector<cv::Point3f> X;
     std::vector<cv::Point2f> x;
     std::vector<size_t> idx;
@@ -501,6 +521,12 @@ bool Tracker::needNewKeyFrame() {
   const bool c1b = frame_id_ >= last_kf_frame_ + p_.min_frames && idle;
   const bool c1c = matches_inliers_ < ref_matches * 0.25f || need_close;
   const bool c2 = (matches_inliers_ < ref_matches * th_ref || need_close) && matches_inliers_ > 15;
+  DSLAM_LOG(Trace, "kf decision frame " << cur_.f.index() << ": inliers " << matches_inliers_ << " ref " << ref_matches
+                                        << " close tracked/untracked " << tracked_close << "/" << untracked_close);
+  if (force_kf_ && matches_inliers_ > 15 && !sink_->isStopped()) {
+    force_kf_ = false;
+    return true;
+  }
   if ((c1a || c1b || c1c) && c2) {
     if (idle) return true;
     sink_->interruptBA();

@@ -23,6 +23,8 @@ class MapManager : public Plugin {
   /** Starts a new map (tracking lost and relocalisation failed) and makes it current. */
   virtual std::shared_ptr<Map> createMap() = 0;
   virtual std::vector<std::shared_ptr<Map>> maps() const = 0;
+  /** Removes a map (after it was merged into another one). */
+  virtual void eraseMap(const std::shared_ptr<Map>& m) = 0;
   /** Drops every map and starts an empty one. */
   virtual void reset() = 0;
   /** Whether a map point may take part in tracking, relocalisation and loop

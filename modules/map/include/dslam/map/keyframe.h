@@ -15,6 +15,7 @@
 #include "dslam/core/se3.h"
 #include "dslam/features/feature_grid.h"
 #include "dslam/map/map_point.h"
+#include "dslam/place_recognition/bow_vector.h"
 
 namespace dslam {
 
@@ -53,6 +54,9 @@ class KeyFrame {
   const CameraIntrinsics cam;
   const std::shared_ptr<const ScaleLevels> scale;
   FeatureGrid grid;
+  /** Bag of words and direct index (empty without a vocabulary). */
+  BowVector bow;
+  FeatureVector feat;
 
   size_t size() const { return keys_un.size(); }
   bool usable(size_t i) const { return meta.empty() || meta[i].label != KpLabel::Dynamic; }

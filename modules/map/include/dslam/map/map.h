@@ -55,6 +55,11 @@ class Map {
 
   void clear();
 
+  /** Moves every keyframe (live and erased) and point of `other` into this
+   *  map, transforming them by T_this_other (world of `other` -> world of
+   *  this map); `other` is left empty. Map merging. */
+  void absorb(Map& other, const SE3& T_this_other);
+
  private:
   std::map<int64_t, KeyFramePtr> kfs_, all_kfs_;
   std::map<int64_t, MapPointPtr> points_;

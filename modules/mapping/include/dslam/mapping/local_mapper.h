@@ -43,7 +43,8 @@ class LocalMapper : public KeyFrameSink {
   LocalMapper(const LocalMapperParams& p, std::shared_ptr<Backend> backend, StageTimer* timer = nullptr);
   ~LocalMapper() override;
 
-  void setMap(const MapPtr& m) { map_ = m; }
+  /** Computes a keyframe's bag of words when it is processed (vocabulary). */
+  void setBowFunction(std::function<void(KeyFrame*)> fn) { bow_fn_ = std::move(fn); }
   /** Called with every processed keyframe (loop closing queue). */
   void setKeyFrameCallback(std::function<void(const KeyFramePtr&)> cb) { on_kf_ = std::move(cb); }
 
@@ -82,8 +83,9 @@ class LocalMapper : public KeyFrameSink {
   LocalMapperParams p_;
   std::shared_ptr<Backend> backend_;
   StageTimer* timer_;
-  MapPtr map_;
+  Map* map_ = nullptr;  ///< map of the keyframe being processed
   std::function<void(const KeyFramePtr&)> on_kf_;
+  std::function<void(KeyFrame*)> bow_fn_;
 
   mutable std::mutex queue_mtx_;
   std::condition_variable cv_;

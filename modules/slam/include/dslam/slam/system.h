@@ -23,20 +23,37 @@
 #include "dslam/core/timing.h"
 #include "dslam/core/trajectory.h"
 #include "dslam/features/frontend.h"
+#include "dslam/loop_closing/keyframe_database.h"
+#include "dslam/loop_closing/loop_closer.h"
 #include "dslam/mapping/local_mapper.h"
 #include "dslam/tracking/tracker.h"
 
 namespace dslam {
 
-/** Parameters of the built-in pipeline sections `features:`, `tracking:`, `mapping:`. */
+/** Place recognition (`place_recognition:` section) and the map policy. */
+struct PlaceRecognitionParams {
+  bool enabled = true;           ///< vocabulary, keyframe database, BoW relocalisation
+  std::string vocabulary;        ///< '' = the shipped default (defaultVocabularyPath())
+  int new_map_after_lost = 15;   ///< frames lost (relocalisation failing) before a new map starts
+  int min_keyframes_keep_map = 10;  ///< smaller maps are discarded instead (ORB-SLAM3: 10)
+  int loop_check_every = 3;      ///< frames between place-recognition checks of tracked frames (0 = keyframes only)
+  static std::vector<ParamSpec> specs();
+  static PlaceRecognitionParams fromParams(const Params& p);
+};
+
+/** Parameters of the built-in pipeline sections `features:`, `tracking:`,
+ *  `mapping:`, `place_recognition:`, `loop_closing:`. */
 struct SlamParams {
   FrontendParams frontend;
   TrackerParams tracker;
   LocalMapperParams mapper;
+  PlaceRecognitionParams place;
+  LoopClosingParams loop;
   static SlamParams fromConfig(const config::PipelineConfig& pc);
 };
 
-/** Registers the `features`, `tracking`, `mapping` sections with the config loader. */
+/** Registers the `features`, `tracking`, `mapping`, `place_recognition` and
+ *  `loop_closing` sections with the config loader. */
 void registerSlamSections();
 
 struct FrameResult {
@@ -63,6 +80,12 @@ class System {
 
   /** Runs the whole pipeline on one frame. */
   FrameResult track(const SensorFrame& frame);
+  /** Loads a saved atlas (MapManager::load) and indexes its keyframes;
+   *  call before the first frame. */
+  void loadMaps(const std::string& path);
+  /** Receives every event as one JSON object (loop, merge, new map...). */
+  void setEventSink(std::function<void(const std::string&)> sink) { on_event_ = std::move(sink); }
+  const LoopCloser* loopCloser() const { return loop_.get(); }
   /** Waits for local mapping to finish its queue and stops the threads. */
   void shutdown();
 
@@ -97,6 +120,15 @@ class System {
   std::shared_ptr<MapManager> maps_;
   std::unique_ptr<LocalMapper> mapper_;
   std::unique_ptr<Tracker> tracker_;
+  std::shared_ptr<KeyFrameDatabase> kfdb_;
+  std::unique_ptr<LoopCloser> loop_;
+  std::function<void(const std::string&)> on_event_;
+  CameraIntrinsics intrinsics_;
+  std::shared_ptr<const ScaleLevels> scale_;
+  int lost_frames_ = 0;
+  void switchToNewMap(int frame);
+  void checkPlaceRecognition(const TrackResult& r);
+  void indexKeyFrames();
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
   std::vector<ClassifierSlot> classifiers_;
   std::optional<Frame> prev_frame_;

@@ -41,6 +41,26 @@ class Matcher {
   /** Brute-force descriptor matching of kf's map points into F with the NN ratio
    *  and orientation checks (ORB-SLAM SearchByBoW without the vocabulary). */
   int searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const;
+  /** Keyframe map points matched to F's keypoints within the same vocabulary
+   *  node (ORB-SLAM SearchByBoW); brute force when either side has no
+   *  feature vector. */
+  int searchByBoW(KeyFrame* kf, TrackedFrame& F) const;
+  /** Map points of kf1 matched to map points of kf2 (loop candidates):
+   *  matches12[i] = point of kf2 matched to kf1's keypoint i. */
+  int searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12) const;
+  /** More kf1<->kf2 point matches by projecting with T12 (kf2 camera -> kf1
+   *  camera) both ways, keeping mutual matches (ORB-SLAM SearchBySim3). */
+  int searchBySE3(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12, const SE3& T12, float th) const;
+  /** Points projected into kf with pose T_cw (the corrected pose of a loop):
+   *  fills matched[i] for keypoints without a match yet (ORB-SLAM
+   *  SearchByProjection with Scw). */
+  int searchByProjection(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>& points,
+                         std::vector<MapPointPtr>& matched, float th) const;
+  /** Fuses `points` into kf projected with T_cw; where kf already has a
+   *  point, replace[i] gets it (the caller replaces it by points[i]). */
+  int fuse(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>& points, float th,
+           std::vector<MapPointPtr>& replace) const;
+
   /** Candidate pairs (i1, i2) of keypoints without map points satisfying the
    *  epipolar constraint x1^T F12 x2 = 0 (ORB-SLAM SearchForTriangulation). */
   int searchForTriangulation(const KeyFrame* kf1, const KeyFrame* kf2, const Eigen::Matrix3d& F12,

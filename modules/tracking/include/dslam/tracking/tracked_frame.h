@@ -22,6 +22,8 @@ struct TrackedFrame {
   std::vector<char> outlier;        ///< set by pose optimisation
   std::optional<SE3> T_cw;          ///< estimated pose (nullopt until tracked)
   KeyFrame* ref_kf = nullptr;
+  BowVector bow;        ///< computed on demand (relocalisation) when a vocabulary exists
+  FeatureVector feat;
 
   TrackedFrame() = default;
   TrackedFrame(Frame frame, const CameraIntrinsics& c, std::shared_ptr<const ScaleLevels> s)

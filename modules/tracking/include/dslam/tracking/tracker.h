@@ -76,6 +76,8 @@ class Tracker {
   void setMap(const MapPtr& map) { map_ = map; }
   const MapPtr& map() const { return map_; }
   void setRelocCandidates(RelocCandidates fn) { reloc_fn_ = std::move(fn); }
+  /** Computes a frame's bag of words (vocabulary) for BoW matching. */
+  void setBowFunction(std::function<void(TrackedFrame&)> fn) { bow_fn_ = std::move(fn); }
 
   /** Tracks one frame. The caller holds no map lock; the tracker takes it. */
   TrackResult track(Frame frame);
@@ -89,8 +91,14 @@ class Tracker {
   const TrackedFrame& lastFrame() const { return last_; }
   KeyFrame* referenceKeyFrame() const { return ref_kf_; }
   const std::vector<MapPointPtr>& localPoints() const { return local_points_; }
+  /** Makes the next tracked frame a keyframe (if mapping accepts it): place
+   *  recognition saw a possible loop and the loop closer needs a keyframe. */
+  void requestKeyFrame() { force_kf_ = true; }
   /** Forget everything (new map). */
   void reset();
+  /** Marks the frames recorded against keyframes of `m` as lost (the map is
+   *  about to be discarded). */
+  void forgetMap(const Map* m);
 
   /** Per-frame record for the final trajectory (ORB-SLAM mlRelativeFramePoses). */
   struct Record {
@@ -125,6 +133,7 @@ class Tracker {
   KeyFrameSink* sink_;
   MapPtr map_;
   RelocCandidates reloc_fn_;
+  std::function<void(TrackedFrame&)> bow_fn_;
   Matcher matcher_;
 
   TrackState state_ = TrackState::NotInitialized;
@@ -134,6 +143,7 @@ class Tracker {
   std::vector<KeyFrame*> local_kfs_;
   std::vector<MapPointPtr> local_points_;
   int matches_inliers_ = 0;
+  bool force_kf_ = false;
   int64_t frame_id_ = -1;         ///< internal running frame counter
   int64_t last_kf_frame_ = -1, last_reloc_frame_ = -100000;
   KeyFrame* last_kf_ = nullptr;
