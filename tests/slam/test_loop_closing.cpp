@@ -21,7 +21,7 @@ namespace {
 std::shared_ptr<DatasetSource> tum(const std::string& dir) {
   register_builtin_plugins();
   auto ds = create<DatasetSource>("dslam::TumDataset");
-  ds->configure(Params::resolve(ds->paramSpecs(), "path: " + dir + "\n"), PluginContext{});
+  ds->configure(Params::resolve(ds->paramSpecs(), test::cat("path: ", dir, "\n")), PluginContext{});
   return ds;
 }
 

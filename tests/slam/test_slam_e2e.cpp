@@ -55,7 +55,7 @@ RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
 
 TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", "path: " + dir + "\n");
+  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   const RunResult r = runSystem(*ds, SlamParams{});
   std::cout << "static_office RGB-D: " << r.tracked << "/" << r.frames << " tracked, ATE " << r.ate << " m\n";
   EXPECT_EQ(r.tracked, r.frames);
@@ -66,7 +66,7 @@ TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
 TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
   // The synthetic folder doubles as a KITTI-style stereo sequence (rgb/ + right/ + calib.txt + poses.txt).
-  auto ds = openDataset("dslam::KittiDataset", "path: " + dir + "\nleft_dir: rgb\nright_dir: right\n");
+  auto ds = openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
   ASSERT_EQ(ds->sensor(), SensorType::Stereo);
   ASSERT_EQ(ds->groundTruth().size(), ds->size());
   const RunResult r = runSystem(*ds, SlamParams{});
@@ -78,7 +78,7 @@ TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
 
 TEST(SlamE2E, SequentialModeIsDeterministic) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", "path: " + dir + "\n");
+  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   SlamParams sp;
   const RunResult a = runSystem(*ds, sp);
   const RunResult b = runSystem(*ds, sp);
@@ -91,7 +91,7 @@ TEST(SlamE2E, SequentialModeIsDeterministic) {
 
 TEST(SlamE2E, BadFramesAreLostNotFatal) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", "path: " + dir + "\n");
+  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   // Frames 60-64: all-zero depth; 65-69: black image; 70-74: no depth at all.
   std::vector<int> state(ds->size(), -1);
   System sys(*ds->camera(), SlamParams{}, ceres());
@@ -119,12 +119,12 @@ TEST(SlamE2E, BadFramesAreLostNotFatal) {
 TEST(SlamE2E, RunCommandWritesOutputsAndReportsAte) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
   const std::string out = test::tempDir("run");
-  const auto r = test::runDslam("run " + test::source("config/pipelines/orbslam_baseline.yaml") + " --dataset " + dir +
-                                " --out " + out + " --max-frames 60 --no-progress");
+  const auto r = test::runDslam(test::cat("run ", test::source("config/pipelines/orbslam_baseline.yaml"), " --dataset ",
+                                          dir, " --out ", out, " --max-frames 60 --no-progress"));
   ASSERT_EQ(r.exit_code, 0) << r.out;
   for (const char* f : {"trajectory.txt", "keyframes.txt", "map.ply", "config.resolved.yaml", "timing.csv",
                         "summary.json", "events.jsonl"})
-    EXPECT_TRUE(std::filesystem::exists(out + "/" + f)) << f;
+    EXPECT_TRUE(std::filesystem::exists(test::cat(out, "/", f))) << f;
   EXPECT_NE(r.out.find("ATE: 0.0"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("tracking time per frame: median"), std::string::npos) << r.out;
   const std::string traj = test::readFile(out + "/trajectory.txt");
@@ -132,5 +132,5 @@ TEST(SlamE2E, RunCommandWritesOutputsAndReportsAte) {
   const std::string csv = test::readFile(out + "/timing.csv");
   EXPECT_NE(csv.find("frame,orb_ms"), std::string::npos);
   // The resolved config re-validates.
-  EXPECT_EQ(test::runDslam("config check " + out + "/config.resolved.yaml").exit_code, 0);
+  EXPECT_EQ(test::runDslam(test::cat("config check ", out, "/config.resolved.yaml")).exit_code, 0);
 }

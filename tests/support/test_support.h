@@ -26,6 +26,14 @@ CmdResult run(const std::string& cmdline);
 /** Runs `dslam <args>`. */
 CmdResult runDslam(const std::string& args);
 std::string readFile(const std::string& path);
+/** Concatenation by append (GCC 12 reports false -Wrestrict warnings for
+ *  chains of `"literal" + std::string + ...` in some inlined contexts). */
+template <class... T>
+std::string cat(const T&... parts) {
+  std::string s;
+  (s.append(parts), ...);
+  return s;
+}
 void writeFile(const std::string& path, const std::string& content);
 
 }  // namespace dslam::test

@@ -225,7 +225,8 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
     sys.timer().writeCsv(tc);
     sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());
   }
-  if (const std::string ap = outPath("atlas"); !ap.empty()) sys.mapManager().save(ap);
+  if (const std::string ap = ov.save_atlas.empty() ? outPath("atlas") : ov.save_atlas; !ap.empty())
+    sys.mapManager().save(ap);
 
   sum.keyframes = kft.size();
   sum.map_points = sys.map()->numPoints();

@@ -24,7 +24,9 @@ const char* toString(TrackState s) {
 std::vector<ParamSpec> TrackerParams::specs() {
   TrackerParams d;
   return {
-      P_int("init_min_points", d.init_min_points, "keypoints with valid depth needed to initialise the map (ORB-SLAM2: 500)", 1),
+      P_int("init_min_points", d.init_min_points, "usable keypoints needed to initialise the map (ORB-SLAM2: N > 500)", 1),
+      P_int("init_min_depth_points", d.init_min_depth_points,
+            "of which with depth: each becomes a map point (guards against frames without depth)", 1),
       P_int("min_frames", d.min_frames, "min frames between keyframes when mapping is idle (ORB-SLAM2 mMinFrames)", 0),
       P_int("max_frames", -1, "frames after which a keyframe is due (ORB-SLAM2 mMaxFrames; -1: camera fps)", -1),
       P_double("ref_ratio", d.ref_ratio, "keyframe when tracked points < ratio x reference keyframe points (thRefRatio)", 0, 1),
@@ -44,6 +46,7 @@ std::vector<ParamSpec> TrackerParams::specs() {
 TrackerParams TrackerParams::fromParams(const Params& p) {
   TrackerParams t;
   t.init_min_points = static_cast<int>(p.getInt("init_min_points"));
+  t.init_min_depth_points = static_cast<int>(p.getInt("init_min_depth_points"));
   t.min_frames = static_cast<int>(p.getInt("min_frames"));
   t.max_frames = static_cast<int>(p.getInt("max_frames"));
   t.ref_ratio = static_cast<float>(p.getDouble("ref_ratio"));
@@ -172,9 +175,13 @@ TrackResult Tracker::track(Frame frame) {
 }
 
 bool Tracker::initialize() {
-  int with_depth = 0;
-  for (size_t i = 0; i < cur_.size(); i++) with_depth += (cur_.f.depth.size() > i && cur_.f.depth[i] > 0 && cur_.usable(i));
-  if (with_depth < p_.init_min_points) return false;
+  int usable = 0, with_depth = 0;
+  for (size_t i = 0; i < cur_.size(); i++) {
+    if (!cur_.usable(i)) continue;
+    usable++;
+    with_depth += cur_.f.depth.size() > i && cur_.f.depth[i] > 0;
+  }
+  if (usable <= p_.init_min_points || with_depth < p_.init_min_depth_points) return false;
   cur_.T_cw = SE3();
   auto kf = std::make_shared<KeyFrame>(Map::nextKeyFrameId(), cur_.f, *cur_.T_cw, cam_, scale_, map_.get());
   map_->addKeyFrame(kf);

@@ -146,6 +146,7 @@ struct RunOverrides {
   int max_frames = -1;
   bool quiet_progress = false;
   std::string load_atlas;
+  std::string save_atlas;
   bool localization_only = false;
 };
 

@@ -23,7 +23,8 @@ enum class TrackState { NotInitialized, Ok, Lost };
 const char* toString(TrackState s);
 
 struct TrackerParams {
-  int init_min_points = 500;      ///< keypoints with depth needed to initialise (ORB-SLAM: 500)
+  int init_min_points = 500;      ///< usable keypoints needed to initialise (ORB-SLAM2: N > 500)
+  int init_min_depth_points = 100;///< of which with depth (stereo match / valid depth)
   int min_frames = 0;             ///< ORB-SLAM mMinFrames
   int max_frames = 30;            ///< ORB-SLAM mMaxFrames (= fps)
   float ref_ratio = 0.75f;        ///< thRefRatio
