@@ -77,9 +77,11 @@ TEST(Frontend, RgbdDepthAndVirtualRightCoordinate) {
   std::vector<float> d, ur;
   computeRgbdDepth(kps, un, depth, cam.bf(), d, ur);
   ASSERT_EQ(d.size(), kps.size());
-  // Depth at the distorted pixel, truncated (ORB-SLAM2); u_right from the undistorted x.
+  // Depth at the nearest pixel of the distorted keypoint (clamped to the last
+  // row/column); u_right from the undistorted x.
+  const int expect_uv[5][2] = {{51, 60}, {0, 0}, {0, 0}, {639, 479}, {320, 21}};
   for (size_t i : {0u, 3u, 4u}) {
-    const int u = static_cast<int>(kps[i].pt.x), v = static_cast<int>(kps[i].pt.y);
+    const int u = expect_uv[i][0], v = expect_uv[i][1];
     const float z = 1.0f + 0.002f * u + 0.003f * v;
     EXPECT_FLOAT_EQ(d[i], z) << i;
     EXPECT_NEAR(ur[i], un[i].pt.x - 40.0 / z, 1e-4) << i;  // bf = 40 for TUM
@@ -93,7 +95,7 @@ TEST(Frontend, RgbdDepthAndVirtualRightCoordinate) {
   cv::Mat raw;
   depth.convertTo(raw, CV_16U, 5000.0);
   computeRgbdDepth(kps, un, raw, cam.bf(), d, ur, 5000.0);
-  EXPECT_NEAR(d[0], 1.0f + 0.002f * 50 + 0.003f * 60, 2e-4);
+  EXPECT_NEAR(d[0], 1.0f + 0.002f * 51 + 0.003f * 60, 2e-4);
   EXPECT_EQ(d[1], -1.0f);
   EXPECT_THROW(computeRgbdDepth(kps, un, cv::Mat(480, 640, CV_8UC1), cam.bf(), d, ur), DataError);
 }
@@ -118,7 +120,7 @@ TEST(Frontend, RgbdFrame) {
   ASSERT_EQ(f.descriptors.rows, static_cast<int>(f.size()));
   int valid = 0;
   for (size_t i = 0; i < f.size(); i++) {
-    const int u = static_cast<int>(f.keypoints[i].pt.x), v = static_cast<int>(f.keypoints[i].pt.y);
+    const int u = std::min(cvRound(f.keypoints[i].pt.x), 639), v = std::min(cvRound(f.keypoints[i].pt.y), 479);
     const float z = in.depth.at<float>(v, u);
     if (z > 0) {
       valid++;

@@ -1,5 +1,6 @@
 #include "dslam/features/frontend.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -84,8 +85,10 @@ void computeRgbdDepth(const std::vector<cv::KeyPoint>& kps, const std::vector<cv
     throw DataError("RGB-D depth: depth_factor must be > 0 for a CV_16U depth image");
   for (size_t i = 0; i < n; i++) {
     // Nearest pixel (ORB-SLAM2 truncates, which biases depth on slanted surfaces by half a pixel).
-    const int u = cvRound(kps[i].pt.x), v = cvRound(kps[i].pt.y);
-    if (u < 0 || v < 0 || u >= depth_image.cols || v >= depth_image.rows) continue;
+    // A keypoint in the last half pixel (x in [cols-0.5, cols)) reads the last column.
+    const float x = kps[i].pt.x, y = kps[i].pt.y;
+    if (!(x >= 0.f && y >= 0.f && x < depth_image.cols && y < depth_image.rows)) continue;
+    const int u = std::min(cvRound(x), depth_image.cols - 1), v = std::min(cvRound(y), depth_image.rows - 1);
     const float d = type == CV_32FC1 ? depth_image.at<float>(v, u)
                                      : static_cast<float>(depth_image.at<uint16_t>(v, u) / depth_factor);
     if (d > 0 && std::isfinite(d)) {
