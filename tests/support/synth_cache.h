@@ -3,7 +3,11 @@
  *  Renders synthetic scenes for tests once per build tree: the sequence is
  *  cached under <build>/test_data/<key> and reused by later tests (atomic
  *  rename, so parallel ctest jobs do not collide). Link dslam::synth. */
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 
@@ -15,10 +19,19 @@ namespace dslam::test {
 inline std::string syntheticSequence(const std::string& scenario, int frames, int width, int height,
                                      bool noise = true, uint64_t seed = 0) {
   namespace fs = std::filesystem;
-  // Bump kLayout when the synth output layout changes (cached folders are reused).
-  constexpr int kLayout = 2;
-  const std::string key = "v" + std::to_string(kLayout) + "_" + scenario + "_" + std::to_string(frames) + "_" + std::to_string(width) + "x" +
-                          std::to_string(height) + (noise ? "" : "_nonoise") + (seed ? "_s" + std::to_string(seed) : "");
+  // Bump kLayout when the synth output layout changes (cached folders are
+  // reused); the key also hashes the scenario file, so edited scenes re-render.
+  constexpr int kLayout = 3;
+  const std::string yaml = source("config/scenarios/" + scenario + ".yaml");
+  std::ifstream in(yaml, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  uint64_t h = 1469598103934665603ull;  // FNV-1a
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  std::ostringstream k;
+  k << "v" << kLayout << "_" << scenario << "_" << frames << "_" << width << "x" << height << (noise ? "" : "_nonoise");
+  if (seed) k << "_s" << seed;
+  k << "_" << std::hex << (h & 0xffffffffu);
+  const std::string key = k.str();
   const fs::path root = fs::path(DSLAM_TEST_BINARY_DIR) / "test_data";
   const fs::path dir = root / key;
   if (fs::exists(dir / "groundtruth.txt")) return dir.string();
@@ -33,7 +46,7 @@ inline std::string syntheticSequence(const std::string& scenario, int frames, in
   synth::WriteOptions wo;
   wo.overwrite = true;
   wo.progress = false;
-  synth::renderToFolder(source("config/scenarios/" + scenario + ".yaml"), tmp.string(), ov, wo);
+  synth::renderToFolder(yaml, tmp.string(), ov, wo);
   std::error_code ec;
   fs::rename(tmp, dir, ec);  // another job may have won the race: then use its copy
   if (ec) fs::remove_all(tmp, ec);

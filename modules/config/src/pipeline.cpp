@@ -74,6 +74,7 @@ std::vector<ParamSpec> outputParamSpecs() {
       P_enum("trajectory_format", "tum", {"tum", "kitti", "euroc"}, "trajectory file format"),
       P_string("keyframe_trajectory", "keyframes.txt", "keyframe trajectory file name ('' = none)"),
       P_string("timing_csv", "timing.csv", "per-frame per-stage timing CSV ('' = none)"),
+      P_string("frames_csv", "frames.csv", "per-frame tracking state, keypoints, usable (non-dynamic) keypoints, tracked map points, ORB feature count ('' = none)"),
       P_string("map", "map.ply", "map points as PLY ('' = none)"),
       P_string("resolved_config", "config.resolved.yaml", "fully resolved configuration copy"),
       P_string("events", "events.jsonl", "loop/merge/lost events, one JSON object per line ('' = none)"),

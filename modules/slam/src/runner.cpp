@@ -146,6 +146,12 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
 
   EventLog ev;
   ev.open(outPath("events"));
+  std::ofstream frames_csv;
+  if (const std::string fp = outPath("frames_csv"); !fp.empty()) {
+    frames_csv.open(fp);
+    if (!frames_csv) throw DataError("cannot write per-frame CSV: " + fp);
+    frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count\n";
+  }
   sys.setEventSink([&ev](const std::string& json) { ev.write(json); });
 
   // ---- frame loop ---------------------------------------------------------
@@ -185,6 +191,13 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
       if (r.track.relocalized) ev.write("{\"event\": \"relocalised\", \"frame\": " + std::to_string(i) + "}");
       if (r.track.state == TrackState::Lost && prev_state == TrackState::Ok)
         ev.write("{\"event\": \"lost\", \"frame\": " + std::to_string(i) + "}");
+      if (frames_csv.is_open()) {
+        char line[160];
+        std::snprintf(line, sizeof(line), "%d,%.6f,%s,%zu,%zu,%d,%d\n", r.frame_index, r.timestamp,
+                      toString(r.track.state), r.keypoints, r.keypoints - r.dynamic_keypoints, r.track.matches,
+                      r.feature_count);
+        frames_csv << line;
+      }
       prev_state = r.track.state;
       done = k + 1;
       if (!ov.quiet_progress) progress.update(done, std::string(toString(r.track.state)) + ", " + std::to_string(r.track.matches) + " matches");

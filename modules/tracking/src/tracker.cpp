@@ -133,6 +133,11 @@ TrackResult Tracker::track(Frame frame) {
     }
     cur_.ref_kf = ref_kf_;
     if (ok) ok = trackLocalMap();
+    if (!ok && state_ == TrackState::Ok) {
+      const size_t usable = cur_.size() - cur_.f.countLabel(KpLabel::Dynamic);
+      DSLAM_LOG(Info, "tracking lost at frame " << cur_.f.index() << ": " << fail_reason_ << " (" << usable << " of "
+                                                << cur_.size() << " keypoints usable)");
+    }
     state_ = ok ? TrackState::Ok : TrackState::Lost;
     if (ok) {
       velocity_ = (last_.T_cw && cur_.T_cw) ? std::optional<SE3>(*cur_.T_cw * last_.T_cw->inverse()) : std::nullopt;
@@ -277,10 +282,11 @@ bool Tracker::trackReferenceKeyFrame() {
   if (bow_fn_ && cur_.bow.empty()) bow_fn_(cur_);
   Matcher m(0.7f, true);
   const int n = m.searchByBoW(ref_kf_, cur_);
-  if (n < 15) return false;
+  if (n < 15) return fail("reference keyframe: ", n, " BoW matches < 15");
   cur_.T_cw = last_.T_cw ? *last_.T_cw : ref_kf_->T_cw();
   optimizePose();
-  return discardOutliers() >= 10;
+  const int in = discardOutliers();
+  return in >= 10 || fail("reference keyframe: ", in, " inliers < 10");
 }
 
 bool Tracker::trackWithMotionModel() {
@@ -296,9 +302,10 @@ bool Tracker::trackWithMotionModel() {
     std::fill(cur_.points.begin(), cur_.points.end(), nullptr);
     n = m.searchByProjection(cur_, last_, static_cast<float>(2 * th), stereo);
   }
-  if (n < 20) return false;
+  if (n < 20) return fail("motion model: ", n, " projection matches < 20");
   optimizePose();
-  return discardOutliers() >= 10;
+  const int in = discardOutliers();
+  return in >= 10 || fail("motion model: ", in, " inliers < 10");
 }
 
 bool Tracker::isInFrustum(MapPoint& mp, float view_cos_limit) {
@@ -431,8 +438,10 @@ bool Tracker::trackLocalMap() {
       cur_.outlier[i] = 0;
     }
   }
-  if (frame_id_ < last_reloc_frame_ + p_.max_frames && matches_inliers_ < p_.min_inliers_after_reloc) return false;
-  return matches_inliers_ >= p_.min_inliers;
+  if (frame_id_ < last_reloc_frame_ + p_.max_frames && matches_inliers_ < p_.min_inliers_after_reloc)
+    return fail("local map: ", matches_inliers_, " inliers < ", p_.min_inliers_after_reloc, " (just relocalised)");
+  return matches_inliers_ >= p_.min_inliers ||
+         fail("local map: ", matches_inliers_, " inliers < ", p_.min_inliers);
 }
 
 bool Tracker::relocalize() {

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -113,6 +114,14 @@ class Tracker {
 
  private:
   bool initialize();
+  /** Records why a tracking step failed (logged when tracking is lost); returns false. */
+  template <typename... A>
+  bool fail(const A&... parts) {
+    std::ostringstream o;
+    (o << ... << parts);
+    fail_reason_ = o.str();
+    return false;
+  }
   bool trackReferenceKeyFrame();
   bool trackWithMotionModel();
   bool trackLocalMap();
@@ -145,6 +154,7 @@ class Tracker {
   std::vector<MapPointPtr> local_points_;
   int matches_inliers_ = 0;
   bool force_kf_ = false;
+  std::string fail_reason_;
   int64_t frame_id_ = -1;         ///< internal running frame counter
   int64_t last_kf_frame_ = -1, last_reloc_frame_ = -100000;
   KeyFrame* last_kf_ = nullptr;
