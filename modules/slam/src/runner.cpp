@@ -1,6 +1,7 @@
 // runPipeline(): the `dslam run` command (dataset loop, outputs, summary).
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iostream>
 #include <sstream>
 
@@ -171,11 +172,25 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   const double wall0 = nowSeconds();
   size_t done = 0;
   try {
+    // The next frame is read and decoded on a helper thread while this one is
+    // processed (reading is deterministic, so sequential runs stay repeatable).
+    auto readAsync = [&](size_t k) {
+      return std::async(std::launch::async, [&reader, i = start + k * stride] { return reader->read(i); });
+    };
+    std::future<SensorFrame> next;
+    if (n > 0) next = readAsync(0);
     for (size_t k = 0; k < n; k++) {
       const size_t i = start + k * stride;
       SensorFrame sf;
+      std::exception_ptr read_error;
       try {
-        sf = reader->read(i);
+        sf = next.get();
+      } catch (...) {
+        read_error = std::current_exception();
+      }
+      if (k + 1 < n) next = readAsync(k + 1);  // readers are not thread-safe: one read at a time
+      try {
+        if (read_error) std::rethrow_exception(read_error);
       } catch (const DataError& e) {
         if (dc.on_bad_frame != "skip") throw;
         DSLAM_LOG(Warn, "skipping frame " << i << ": " << e.what());
