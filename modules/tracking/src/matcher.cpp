@@ -38,6 +38,19 @@ void threeMaxima(const std::vector<std::vector<int>>& hist, int& i1, int& i2, in
 
 }  // namespace
 
+int Matcher::dropByOrientation(const std::vector<float>& rot_diff, std::vector<int>& ids,
+                               std::vector<MapPointPtr>& points) const {
+  std::vector<bool> keep;
+  orientationFilter(rot_diff, ids, keep);
+  int dropped = 0;
+  for (size_t k = 0; k < ids.size(); k++)
+    if (!keep[k]) {
+      points[ids[k]].reset();
+      dropped++;
+    }
+  return dropped;
+}
+
 void Matcher::orientationFilter(const std::vector<float>& rot_diff, std::vector<int>& ids, std::vector<bool>& keep) const {
   keep.assign(ids.size(), true);
   if (!p_.check_orientation || ids.empty()) return;
@@ -148,14 +161,7 @@ int Matcher::searchByProjection(TrackedFrame& cur, const TrackedFrame& last, flo
       n++;
     }
   }
-  std::vector<bool> keep;
-  orientationFilter(rot, ids, keep);
-  for (size_t k = 0; k < ids.size(); k++)
-    if (!keep[k]) {
-      cur.points[ids[k]].reset();
-      n--;
-    }
-  return n;
+  return n - dropByOrientation(rot, ids, cur.points);
 }
 
 int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<const MapPoint*>& found, float th,
@@ -197,14 +203,7 @@ int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<co
       n++;
     }
   }
-  std::vector<bool> keep;
-  orientationFilter(rot, ids, keep);
-  for (size_t k = 0; k < ids.size(); k++)
-    if (!keep[k]) {
-      F.points[ids[k]].reset();
-      n--;
-    }
-  return n;
+  return n - dropByOrientation(rot, ids, F.points);
 }
 
 int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
@@ -243,14 +242,7 @@ int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
     rot.push_back(kf->keys_un[kf_for_f[j]].angle - F.f.keypoints_un[j].angle);
     n++;
   }
-  std::vector<bool> keep;
-  orientationFilter(rot, ids, keep);
-  for (size_t k = 0; k < ids.size(); k++)
-    if (!keep[k]) {
-      F.points[ids[k]].reset();
-      n--;
-    }
-  return n;
+  return n - dropByOrientation(rot, ids, F.points);
 }
 
 int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
@@ -303,14 +295,7 @@ int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
     rot.push_back(kf->keys_un[kf_for_f[j]].angle - F.f.keypoints_un[j].angle);
     n++;
   }
-  std::vector<bool> keep;
-  orientationFilter(rot, ids, keep);
-  for (size_t k = 0; k < ids.size(); k++)
-    if (!keep[k]) {
-      F.points[ids[k]].reset();
-      n--;
-    }
-  return n;
+  return n - dropByOrientation(rot, ids, F.points);
 }
 
 int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12) const {

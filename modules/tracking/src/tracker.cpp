@@ -179,6 +179,23 @@ TrackResult Tracker::track(Frame frame) {
   return res;
 }
 
+bool Tracker::createPointFromDepth(KeyFrame* kf, size_t i) {
+  Eigen::Vector3d Xw;
+  if (!cur_.unprojectStereo(i, Xw)) return false;
+  auto mp = std::make_shared<MapPoint>(Map::nextPointId(), Xw, kf, map_.get());
+  const auto& m = cur_.f.meta.empty() ? KeypointMeta{} : cur_.f.meta[i];
+  mp->class_id = m.class_id;
+  mp->object_id = m.object_id;
+  mp->label = m.label;
+  mp->addObservation(kf, static_cast<int>(i));
+  kf->addPoint(mp, static_cast<int>(i));
+  mp->computeDistinctiveDescriptor();
+  mp->updateNormalAndDepth();
+  map_->addPoint(mp);
+  cur_.points[i] = mp;
+  return true;
+}
+
 bool Tracker::initialize() {
   int usable = 0, with_depth = 0;
   for (size_t i = 0; i < cur_.size(); i++) {
@@ -192,19 +209,7 @@ bool Tracker::initialize() {
   map_->addKeyFrame(kf);
   for (size_t i = 0; i < cur_.size(); i++) {
     if (!cur_.usable(i) || cur_.f.depth[i] <= 0) continue;
-    Eigen::Vector3d Xw;
-    if (!cur_.unprojectStereo(i, Xw)) continue;
-    auto mp = std::make_shared<MapPoint>(Map::nextPointId(), Xw, kf.get(), map_.get());
-    const auto& m = cur_.f.meta.empty() ? KeypointMeta{} : cur_.f.meta[i];
-    mp->class_id = m.class_id;
-    mp->object_id = m.object_id;
-    mp->label = m.label;
-    mp->addObservation(kf.get(), static_cast<int>(i));
-    kf->addPoint(mp, static_cast<int>(i));
-    mp->computeDistinctiveDescriptor();
-    mp->updateNormalAndDepth();
-    map_->addPoint(mp);
-    cur_.points[i] = mp;
+    createPointFromDepth(kf.get(), i);
   }
   DSLAM_LOG(Info, "map " << map_->id << " initialised with " << map_->numPoints() << " points at frame "
                          << cur_.f.index());
@@ -570,19 +575,7 @@ void Tracker::createNewKeyFrame() {
       cur_.points[i].reset();
     }
     if (create) {
-      Eigen::Vector3d Xw;
-      if (!cur_.unprojectStereo(i, Xw)) continue;
-      auto mp = std::make_shared<MapPoint>(Map::nextPointId(), Xw, kf.get(), map_.get());
-      const auto& m = cur_.f.meta.empty() ? KeypointMeta{} : cur_.f.meta[i];
-      mp->class_id = m.class_id;
-      mp->object_id = m.object_id;
-      mp->label = m.label;
-      mp->addObservation(kf.get(), i);
-      kf->points[i] = mp;
-      mp->computeDistinctiveDescriptor();
-      mp->updateNormalAndDepth();
-      map_->addPoint(mp);
-      cur_.points[i] = mp;
+      if (!createPointFromDepth(kf.get(), static_cast<size_t>(i))) continue;
       cur_.outlier[i] = 0;
     }
     n++;

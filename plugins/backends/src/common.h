@@ -43,6 +43,22 @@ double observationChi2(const BAProblem& p, const BAObservation& o, bool* depth_o
  *  camera. Returns the number of observations newly flagged. */
 int markOutliers(BAProblem& p, const CommonSettings& s);
 
+/** ORB-SLAM's outlier scheme around one optimisation pass
+ *  `pass(iterations, robust) -> bool`: with opt.reject_outliers, a robust
+ *  first pass of s.first_pass_iterations, the chi2 test, a second pass without
+ *  the robust kernel and the test again; otherwise one pass. Adds the flagged
+ *  observations to *num_outliers; returns whether every pass succeeded. */
+template <class Pass>
+bool optimizeWithOutlierRejection(BAProblem& p, const CommonSettings& s, const BAOptions& opt, Pass&& pass,
+                                  int* num_outliers) {
+  if (!opt.reject_outliers) return pass(opt.max_iterations, opt.robust);
+  if (!pass(s.first_pass_iterations, opt.robust)) return false;
+  *num_outliers += markOutliers(p, s);
+  if (!pass(opt.max_iterations, false)) return false;
+  *num_outliers += markOutliers(p, s);
+  return true;
+}
+
 /** Milliseconds since `t0` (seconds from nowSeconds()). */
 double elapsedMs(double t0);
 

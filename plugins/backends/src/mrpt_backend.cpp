@@ -185,18 +185,7 @@ BAResult MrptBackend::bundleAdjust(BAProblem& problem, const BAOptions& opt_in) 
     return true;
   };
 
-  bool ok = true;
-  if (opt.reject_outliers) {
-    ok = pass(S.first_pass_iterations, opt.robust);
-    if (ok) {
-      res.num_outliers += backends::markOutliers(problem, S);
-      ok = pass(opt.max_iterations, false);
-      if (ok) res.num_outliers += backends::markOutliers(problem, S);
-    }
-  } else {
-    ok = pass(opt.max_iterations, opt.robust);
-  }
-  res.success = ok;
+  res.success = backends::optimizeWithOutlierRejection(problem, S, opt, pass, &res.num_outliers);
   res.final_cost = evaluateCost(problem, opt);
   res.message = msg.str();
   if (!res.message.empty()) res.message.resize(res.message.size() - 2);

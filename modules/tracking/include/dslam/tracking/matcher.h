@@ -75,6 +75,8 @@ class Matcher {
   /** Keeps the matches of the three main rotation-histogram bins. */
   void orientationFilter(const std::vector<float>& rot_diff, std::vector<int>& match_ids,
                          std::vector<bool>& keep) const;
+  /** orientationFilter, then resets points[ids[k]] of every rejected match; returns how many. */
+  int dropByOrientation(const std::vector<float>& rot_diff, std::vector<int>& ids, std::vector<MapPointPtr>& points) const;
   MatcherParams p_;
 };
 

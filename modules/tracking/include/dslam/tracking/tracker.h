@@ -114,6 +114,8 @@ class Tracker {
 
  private:
   bool initialize();
+  /** New map point from keypoint i's depth/stereo, observed by kf and matched in the current frame. */
+  bool createPointFromDepth(KeyFrame* kf, size_t i);
   /** Records why a tracking step failed (logged when tracking is lost); returns false. */
   template <typename... A>
   bool fail(const A&... parts) {
