@@ -125,3 +125,19 @@ TEST(Pipeline, DetectsDatasetTypeFromLayout) {
   EXPECT_EQ(config::detectDatasetType(d + "/x.rawlog"), "dslam::RawlogDataset");
   EXPECT_EQ(config::detectDatasetType(d), "");
 }
+
+TEST(Pipeline, DetectorsRunEveryNthFrame) {
+  register_builtin_plugins();
+  const auto pc = config::loadPipelineText(
+      "modules:\n  - name: people\n    type: dslam::HogPeopleDetector\n    every: 3\n"
+      "  - name: filter\n    type: dslam::BoxFilter\n    inputs: [people]\n",
+      "/cfg");
+  ASSERT_EQ(pc.modules.size(), 2u);
+  EXPECT_EQ(pc.modules[0].every, 3);
+  EXPECT_EQ(pc.modules[1].every, 1);
+  EXPECT_NE(pc.toYaml().find("    every: 3\n"), std::string::npos) << pc.toYaml();
+  std::string e = errorOf("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n    every: 0\n");
+  EXPECT_NE(e.find("key 'modules[0].every': expected an integer >= 1"), std::string::npos) << e;
+  e = errorOf("modules:\n  - name: f\n    type: dslam::BoxFilter\n    every: 2\n");
+  EXPECT_NE(e.find("'every' applies to detectors only"), std::string::npos) << e;
+}

@@ -1,5 +1,6 @@
 #include "dslam/config/pipeline.h"
 
+#include <cstdlib>
 #include <mrpt/containers/yaml.h>
 
 #include <filesystem>
@@ -168,7 +169,7 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
   if (const node_t* m = yamlu::findValue(root, "modules")) {
     if (!m->isSequence() && !m->isNullNode())
       L.fail("modules", yamlu::findKey(root, "modules"), "expected a list of {name, type, params, inputs}");
-    const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled"};
+    const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every"};
     size_t i = 0;
     if (m->isSequence())
       for (const auto& e : m->asSequence()) {
@@ -205,6 +206,16 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
         if (mc.interface_name == std::string("DatasetSource"))
           L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
         mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
+        if (const node_t* ev = yamlu::findValue(e, "every")) {
+          const auto t = yamlu::scalarText(*ev).value_or("");
+          char* end = nullptr;
+          const long n = std::strtol(t.c_str(), &end, 10);
+          if (t.empty() || *end != '\0' || n < 1 || n > 1000000)
+            L.fail(kp + ".every", ev, "expected an integer >= 1 (run the detector on every N-th frame), got " + yamlu::describe(*ev));
+          if (mc.interface_name != std::string("Detector"))
+            L.fail(kp + ".every", ev, "'every' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+          mc.every = static_cast<int>(n);
+        }
         if (const node_t* in = yamlu::findValue(e, "inputs")) {
           if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
           for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
@@ -281,6 +292,7 @@ std::string PipelineConfig::toYaml() const {
     o << "  - name: " << m.name << "\n    type: " << m.type << "\n    enabled: " << (m.enabled ? "true" : "false")
       << "\n";
     if (!m.inputs.empty()) o << "    inputs: [" << yamlu::join(m.inputs) << "]\n";
+    if (m.interface_name == std::string("Detector")) o << "    every: " << m.every << "\n";
     o << "    params:" << paramsBlock(m.params, 6);
   }
   o << "outputs:" << paramsBlock(outputs, 2);

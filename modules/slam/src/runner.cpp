@@ -134,7 +134,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   if (!ov.load_atlas.empty()) sys.loadMaps(ov.load_atlas);
   for (const auto* m : pc.modulesOf("Detector")) {
     auto d = std::dynamic_pointer_cast<Detector>(makeModule(*m, base));
-    sys.addDetector(m->name, d, 1);
+    sys.addDetector(m->name, d, m->every);
   }
   for (const auto* m : pc.modulesOf("KeypointClassifier")) {
     auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));

@@ -33,6 +33,7 @@ struct ModuleConfig {
   Params params;
   std::vector<std::string> inputs;
   bool enabled = true;
+  int every = 1;  ///< detectors: run on every N-th frame (the last result is reused in between)
   SourceLocation where;
 };
 
