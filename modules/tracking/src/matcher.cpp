@@ -206,18 +206,20 @@ int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<co
   return n - dropByOrientation(rot, ids, F.points);
 }
 
-int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
-  const size_t nF = F.size();
-  std::vector<int> best_for_f(nF, 256);
-  std::vector<int> kf_for_f(nF, -1);
-  std::vector<float> rot;
-  std::vector<int> ids;
-  for (size_t i = 0; i < kf->points.size(); i++) {
+/** One-to-one keyframe -> frame matching shared by searchByDescriptors and
+ *  searchByBoW: `for_each_pair(visit)` calls visit(i, candidates) for each
+ *  keyframe keypoint i with the frame keypoints it may match. */
+template <class ForEachPair>
+int Matcher::matchKeyFrameToFrame(KeyFrame* kf, TrackedFrame& F, ForEachPair&& for_each_pair) const {
+  std::vector<int> best_for_f(F.size(), 256);
+  std::vector<int> kf_for_f(F.size(), -1);
+  for_each_pair([&](uint32_t i, const auto& candidates) {
     const MapPointPtr& mp = kf->points[i];
-    if (!mp || mp->bad || !mp->active) continue;
+    if (!mp || mp->bad || !mp->active) return;
     const uint8_t* dk = kf->descriptors.ptr<uint8_t>(static_cast<int>(i));
     int b1 = 256, b2 = 256, bi = -1;
-    for (size_t j = 0; j < nF; j++) {
+    for (const auto jj : candidates) {
+      const size_t j = static_cast<size_t>(jj);
       if (!F.usable(j)) continue;
       const int d = descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j)));
       if (d < b1) {
@@ -228,65 +230,14 @@ int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
         b2 = d;
       }
     }
-    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) continue;
+    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) return;
     if (b1 < best_for_f[bi]) {  // one-to-one: keep the closest keyframe point per frame keypoint
       best_for_f[bi] = b1;
       kf_for_f[bi] = static_cast<int>(i);
     }
-  }
-  int n = 0;
-  for (size_t j = 0; j < nF; j++) {
-    if (kf_for_f[j] < 0) continue;
-    F.points[j] = kf->points[kf_for_f[j]];
-    ids.push_back(static_cast<int>(j));
-    rot.push_back(kf->keys_un[kf_for_f[j]].angle - F.f.keypoints_un[j].angle);
-    n++;
-  }
-  return n - dropByOrientation(rot, ids, F.points);
-}
-
-int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
-  if (kf->feat.empty() || F.feat.empty()) return searchByDescriptors(kf, F);
+  });
   std::vector<float> rot;
   std::vector<int> ids;
-  std::vector<int> best_for_f(F.size(), 256);
-  std::vector<int> kf_for_f(F.size(), -1);
-  auto it1 = kf->feat.begin(), end1 = kf->feat.end();
-  auto it2 = F.feat.begin(), end2 = F.feat.end();
-  while (it1 != end1 && it2 != end2) {
-    if (it1->node < it2->node) {
-      ++it1;
-      continue;
-    }
-    if (it2->node < it1->node) {
-      ++it2;
-      continue;
-    }
-    for (uint32_t i : it1->features) {
-      const MapPointPtr& mp = kf->points[i];
-      if (!mp || mp->bad || !mp->active) continue;
-      const uint8_t* dk = kf->descriptors.ptr<uint8_t>(static_cast<int>(i));
-      int b1 = 256, b2 = 256, bi = -1;
-      for (uint32_t j : it2->features) {
-        if (!F.usable(j)) continue;
-        const int d = descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-        if (d < b1) {
-          b2 = b1;
-          b1 = d;
-          bi = static_cast<int>(j);
-        } else if (d < b2) {
-          b2 = d;
-        }
-      }
-      if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) continue;
-      if (b1 < best_for_f[bi]) {
-        best_for_f[bi] = b1;
-        kf_for_f[bi] = static_cast<int>(i);
-      }
-    }
-    ++it1;
-    ++it2;
-  }
   int n = 0;
   for (size_t j = 0; j < F.size(); j++) {
     if (kf_for_f[j] < 0) continue;
@@ -296,6 +247,34 @@ int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
     n++;
   }
   return n - dropByOrientation(rot, ids, F.points);
+}
+
+int Matcher::searchByDescriptors(KeyFrame* kf, TrackedFrame& F) const {
+  std::vector<uint32_t> all(F.size());
+  for (size_t j = 0; j < all.size(); j++) all[j] = static_cast<uint32_t>(j);
+  return matchKeyFrameToFrame(kf, F, [&](auto&& visit) {
+    for (size_t i = 0; i < kf->points.size(); i++) visit(static_cast<uint32_t>(i), all);
+  });
+}
+
+int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
+  if (kf->feat.empty() || F.feat.empty()) return searchByDescriptors(kf, F);
+  return matchKeyFrameToFrame(kf, F, [&](auto&& visit) {
+    // Only keypoints under the same vocabulary node (direct index) are compared.
+    auto it1 = kf->feat.begin(), end1 = kf->feat.end();
+    auto it2 = F.feat.begin(), end2 = F.feat.end();
+    while (it1 != end1 && it2 != end2) {
+      if (it1->node < it2->node) {
+        ++it1;
+      } else if (it2->node < it1->node) {
+        ++it2;
+      } else {
+        for (uint32_t i : it1->features) visit(i, it2->features);
+        ++it1;
+        ++it2;
+      }
+    }
+  });
 }
 
 int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>& matches12) const {

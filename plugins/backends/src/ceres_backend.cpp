@@ -345,10 +345,7 @@ BAResult CeresBackend::bundleAdjust(BAProblem& problem, const BAOptions& opt_in)
   };
 
   res.success = backends::optimizeWithOutlierRejection(problem, S, opt, pass, &res.num_outliers);
-  res.final_cost = evaluateCost(problem, opt);
-  res.message = msg.str();
-  if (!res.message.empty()) res.message.resize(res.message.size() - 2);
-  res.time_ms = backends::elapsedMs(t0);
+  backends::finishResult(res, problem, opt, msg.str(), t0);
   return res;
 }
 

@@ -138,4 +138,11 @@ int markOutliers(BAProblem& p, const CommonSettings& s) {
 
 double elapsedMs(double t0) { return (nowSeconds() - t0) * 1e3; }
 
+void finishResult(BAResult& res, const BAProblem& p, const BAOptions& opt, const std::string& log, double t0) {
+  res.final_cost = evaluateCost(p, opt);
+  res.message = log;
+  if (res.message.size() >= 2) res.message.resize(res.message.size() - 2);
+  res.time_ms = elapsedMs(t0);
+}
+
 }  // namespace dslam::backends

@@ -59,6 +59,10 @@ bool optimizeWithOutlierRejection(BAProblem& p, const CommonSettings& s, const B
   return true;
 }
 
+/** Fills the end of a BA result: final cost, the passes' log ("a; b; ",
+ *  trailing separator dropped) and the time since `t0`. */
+void finishResult(BAResult& res, const BAProblem& p, const BAOptions& opt, const std::string& log, double t0);
+
 /** Milliseconds since `t0` (seconds from nowSeconds()). */
 double elapsedMs(double t0);
 

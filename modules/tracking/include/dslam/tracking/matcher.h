@@ -76,6 +76,8 @@ class Matcher {
   void orientationFilter(const std::vector<float>& rot_diff, std::vector<int>& match_ids,
                          std::vector<bool>& keep) const;
   /** orientationFilter, then resets points[ids[k]] of every rejected match; returns how many. */
+  template <class ForEachPair>
+  int matchKeyFrameToFrame(KeyFrame* kf, TrackedFrame& F, ForEachPair&& for_each_pair) const;
   int dropByOrientation(const std::vector<float>& rot_diff, std::vector<int>& ids, std::vector<MapPointPtr>& points) const;
   MatcherParams p_;
 };
