@@ -56,19 +56,6 @@ Trajectory helix(size_t n) {
   return t;
 }
 
-template <class F>
-std::string dataError(F&& f) {
-  try {
-    f();
-  } catch (const DataError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected DataError, got: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected DataError, nothing thrown";
-  return "";
-}
 
 }  // namespace
 
@@ -213,10 +200,10 @@ TEST(EvalAlign, Se3RecoversRigidTransformAndNoneKeepsOffsets) {
 
 TEST(EvalAlign, NeedsThreePointsAndSpreadForScale) {
   std::vector<Eigen::Vector3d> a = {{0, 0, 0}, {1, 0, 0}}, b = a;
-  EXPECT_NE(dataError([&] { eval::alignPoints(a, b, eval::Align::SE3); }).find("at least 3"), std::string::npos);
+  EXPECT_NE(test::dataError([&] { eval::alignPoints(a, b, eval::Align::SE3); }).find("at least 3"), std::string::npos);
   EXPECT_NO_THROW(eval::alignPoints(a, b, eval::Align::None));
   std::vector<Eigen::Vector3d> same(5, Eigen::Vector3d(1, 2, 3)), other = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
-  EXPECT_NE(dataError([&] { eval::alignPoints(same, other, eval::Align::Sim3); }).find("scale undefined"),
+  EXPECT_NE(test::dataError([&] { eval::alignPoints(same, other, eval::Align::Sim3); }).find("scale undefined"),
             std::string::npos);
   EXPECT_THROW(eval::alignFromString("affine"), ConfigError);
   EXPECT_EQ(eval::alignFromString("sim3"), eval::Align::Sim3);
@@ -246,13 +233,13 @@ TEST(EvalAssociation, NoOverlapIsAClearError) {
   eval::AteOptions o;
   o.gt_name = "gt.txt";
   o.est_name = "est.txt";
-  const std::string m = dataError([&] { eval::computeAte(gt, est, o); });
+  const std::string m = test::dataError([&] { eval::computeAte(gt, est, o); });
   EXPECT_NE(m.find("no ground-truth pose within max_dt 0.02 s of any of the 10 estimate poses"), std::string::npos)
       << m;
   EXPECT_NE(m.find("gt.txt"), std::string::npos) << m;
   EXPECT_NE(m.find("est.txt"), std::string::npos) << m;
   eval::RpeOptions ro;
-  EXPECT_NE(dataError([&] { eval::computeRpe(gt, est, ro); }).find("no ground-truth pose"), std::string::npos);
+  EXPECT_NE(test::dataError([&] { eval::computeRpe(gt, est, ro); }).find("no ground-truth pose"), std::string::npos);
   // A stamp offset just inside max_dt associates everything.
   Trajectory near;
   for (int i = 0; i < 10; i++) near.push_back(i * 0.1 + 0.019, pose(0, {i * 0.1, 0, 0}));
@@ -368,7 +355,7 @@ TEST(EvalRpe, MetresFollowTheWholeGroundTruthPath) {
   EXPECT_EQ(q.pairs[1].k1, 2u);
 
   o.delta = 3.2;
-  const std::string m = dataError([&] { eval::computeRpe(gt, est, o); });
+  const std::string m = test::dataError([&] { eval::computeRpe(gt, est, o); });
   EXPECT_NE(m.find("no pose pair 3.2 m apart"), std::string::npos) << m;
   EXPECT_NE(m.find("span 3.13836 m of ground-truth path"), std::string::npos) << m;
 }
@@ -406,12 +393,12 @@ TEST(EvalRpe, BadDeltas) {
   o.delta = 0;
   EXPECT_THROW(eval::computeRpe(gt, gt, o), ConfigError);
   o.delta = 5;  // 5 poses: no pair 5 frames apart
-  const std::string m = dataError([&] { eval::computeRpe(gt, gt, o); });
+  const std::string m = test::dataError([&] { eval::computeRpe(gt, gt, o); });
   EXPECT_NE(m.find("no pose pair 5 frames apart (5 associated poses"), std::string::npos) << m;
   o.delta = 1;
   Trajectory one;
   one.push_back(0, SE3());
-  EXPECT_NE(dataError([&] { eval::computeRpe(one, one, o); }).find("at least 2 associated poses"),
+  EXPECT_NE(test::dataError([&] { eval::computeRpe(one, one, o); }).find("at least 2 associated poses"),
             std::string::npos);
   EXPECT_THROW(eval::deltaUnitFromString("deg"), ConfigError);
 }

@@ -114,6 +114,17 @@ PlaneResult matchPlane(double d_true, const StereoMatchParams& sp) {
   return res;
 }
 
+/** Frame 0 of a real stereo pair read from disk (images empty if unreadable). */
+SensorFrame stereoPair(const std::string& left, const std::string& right) {
+  SensorFrame in;
+  in.index = 0;
+  in.image_path = left;
+  in.image_right_path = right;
+  in.image = cv::imread(left, cv::IMREAD_UNCHANGED);
+  in.image_right = cv::imread(right, cv::IMREAD_UNCHANGED);
+  return in;
+}
+
 }  // namespace
 
 class SyntheticStereo : public ::testing::TestWithParam<double> {};
@@ -166,12 +177,7 @@ TEST(StereoMatcher, NoMatchesOutsideTheDisparityRange) {
 TEST(StereoMatcher, RealKittiPair) {
   const std::string dir = test::shared("data/kitti-stereo-51");
   if (dir.empty()) GTEST_SKIP();
-  SensorFrame in;
-  in.index = 0;
-  in.image_path = dir + "/image_l/000000.png";
-  in.image_right_path = dir + "/image_r/000000.png";
-  in.image = cv::imread(in.image_path, cv::IMREAD_UNCHANGED);
-  in.image_right = cv::imread(in.image_right_path, cv::IMREAD_UNCHANGED);
+  const SensorFrame in = stereoPair(dir + "/image_l/000000.png", dir + "/image_r/000000.png");
   ASSERT_FALSE(in.image.empty());
   ASSERT_FALSE(in.image_right.empty());
   const CameraModel cam = *cameraPreset("kitti_00_02");
@@ -253,12 +259,7 @@ TEST(StereoRectification, RejectsBadRigs) {
 TEST(StereoFrontend, RealEurocPairIsRectifiedAndMatched) {
   const std::string dir = test::shared("data/euroc-v101-micro/mav0");
   if (dir.empty()) GTEST_SKIP();
-  SensorFrame in;
-  in.index = 0;
-  in.image_path = dir + "/cam0/data/1403715273262142976.png";
-  in.image_right_path = dir + "/cam1/data/1403715273262142976.png";
-  in.image = cv::imread(in.image_path, cv::IMREAD_UNCHANGED);
-  in.image_right = cv::imread(in.image_right_path, cv::IMREAD_UNCHANGED);
+  const SensorFrame in = stereoPair(dir + "/cam0/data/1403715273262142976.png", dir + "/cam1/data/1403715273262142976.png");
   ASSERT_FALSE(in.image.empty());
   ASSERT_FALSE(in.image_right.empty());
   FrontendParams p;

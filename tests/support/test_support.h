@@ -3,7 +3,10 @@
  *  Helpers for dslam's gtest suites. */
 #include <gtest/gtest.h>
 
+#include <exception>
 #include <string>
+
+#include "dslam/core/error.h"
 
 namespace dslam::test {
 
@@ -35,6 +38,22 @@ std::string cat(const T&... parts) {
   return s;
 }
 void writeFile(const std::string& path, const std::string& content);
+
+/** Message of the DataError thrown by f; fails the test if f throws nothing
+ *  or another exception. */
+template <class F>
+std::string dataError(F&& f) {
+  try {
+    f();
+  } catch (const DataError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected DataError, got: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected DataError, nothing thrown";
+  return "";
+}
 
 }  // namespace dslam::test
 

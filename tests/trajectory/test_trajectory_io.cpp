@@ -14,20 +14,6 @@ using dslam::test::writeFile;
 
 namespace {
 
-/** Message of the DataError thrown by f (fails the test if none). */
-template <class F>
-std::string dataError(F&& f) {
-  try {
-    f();
-  } catch (const DataError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected DataError, got: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected DataError, nothing thrown";
-  return "";
-}
 
 traj::ReadOptions fmt(traj::Format f) {
   traj::ReadOptions o;
@@ -76,7 +62,7 @@ TEST(TrajectoryIo, ReadsTumWithComments) {
 TEST(TrajectoryIo, NanIsRejectedWithFileAndLine) {
   const std::string f = tempDir("trajio") + "/nan.txt";
   writeFile(f, std::string(kTumOk) + "1.2 0.2 nan 0 0 0 0 1\n");
-  const std::string m = dataError([&] { traj::read(f); });
+  const std::string m = test::dataError([&] { traj::read(f); });
   EXPECT_NE(m.find(f + ":4:"), std::string::npos) << m;
   EXPECT_NE(m.find("field 3 is not finite"), std::string::npos) << m;
 }
@@ -84,14 +70,14 @@ TEST(TrajectoryIo, NanIsRejectedWithFileAndLine) {
 TEST(TrajectoryIo, InfIsRejected) {
   const std::string f = tempDir("trajio") + "/inf.txt";
   writeFile(f, std::string(kTumOk) + "1.2 0.2 0 inf 0 0 0 1\n");
-  const std::string m = dataError([&] { traj::readTum(f); });
+  const std::string m = test::dataError([&] { traj::readTum(f); });
   EXPECT_NE(m.find(f + ":4: field 4 is not finite"), std::string::npos) << m;
 }
 
 TEST(TrajectoryIo, ShortLineIsRejectedWithFileAndLine) {
   const std::string f = tempDir("trajio") + "/short.txt";
   writeFile(f, std::string(kTumOk) + "1.2 0.2 0 0 0 0 1\n");
-  const std::string m = dataError([&] { traj::read(f, fmt(traj::Format::Tum)); });
+  const std::string m = test::dataError([&] { traj::read(f, fmt(traj::Format::Tum)); });
   EXPECT_NE(m.find(f + ":4: expected 8 values"), std::string::npos) << m;
   EXPECT_NE(m.find("got 7"), std::string::npos) << m;
 }
@@ -99,23 +85,23 @@ TEST(TrajectoryIo, ShortLineIsRejectedWithFileAndLine) {
 TEST(TrajectoryIo, NonNumericFieldIsRejected) {
   const std::string f = tempDir("trajio") + "/text.txt";
   writeFile(f, std::string(kTumOk) + "1.2 0.2 0 0 zero 0 0 1\n");
-  const std::string m = dataError([&] { traj::read(f); });
+  const std::string m = test::dataError([&] { traj::read(f); });
   EXPECT_NE(m.find(f + ":4: field 5 is not a number: 'zero'"), std::string::npos) << m;
   // A number with trailing garbage is not a number either.
   writeFile(f, std::string(kTumOk) + "1.2 0.2m 0 0 0 0 0 1\n");
-  const std::string m2 = dataError([&] { traj::read(f); });
+  const std::string m2 = test::dataError([&] { traj::read(f); });
   EXPECT_NE(m2.find(f + ":4: field 2 is not a number: '0.2m'"), std::string::npos) << m2;
 }
 
 TEST(TrajectoryIo, BackwardsAndRepeatedTimestampsAreRejected) {
   const std::string f = tempDir("trajio") + "/back.txt";
   writeFile(f, std::string(kTumOk) + "1.05 0.2 0 0 0 0 0 1\n");
-  const std::string m = dataError([&] { traj::read(f); });
+  const std::string m = test::dataError([&] { traj::read(f); });
   EXPECT_NE(m.find(f + ":4: timestamps must increase"), std::string::npos) << m;
   EXPECT_NE(m.find("1.050000000 after 1.100000000"), std::string::npos) << m;
 
   writeFile(f, std::string(kTumOk) + "1.1 0.2 0 0 0 0 0 1\n");
-  EXPECT_NE(dataError([&] { traj::read(f); }).find(f + ":4: timestamps must increase"), std::string::npos);
+  EXPECT_NE(test::dataError([&] { traj::read(f); }).find(f + ":4: timestamps must increase"), std::string::npos);
 
   // Allowed when asked for.
   traj::ReadOptions ro;
@@ -126,28 +112,28 @@ TEST(TrajectoryIo, BackwardsAndRepeatedTimestampsAreRejected) {
 TEST(TrajectoryIo, EmptyAndCommentOnlyFilesAreRejected) {
   const std::string d = tempDir("trajio");
   writeFile(d + "/empty.txt", "");
-  std::string m = dataError([&] { traj::read(d + "/empty.txt"); });
+  std::string m = test::dataError([&] { traj::read(d + "/empty.txt"); });
   EXPECT_NE(m.find(d + "/empty.txt"), std::string::npos) << m;
   EXPECT_NE(m.find("no data lines"), std::string::npos) << m;
 
   writeFile(d + "/comments.txt", "# timestamp tx ty tz qx qy qz qw\n\n# nothing\n");
-  m = dataError([&] { traj::read(d + "/comments.txt", fmt(traj::Format::Tum)); });
+  m = test::dataError([&] { traj::read(d + "/comments.txt", fmt(traj::Format::Tum)); });
   EXPECT_NE(m.find("no poses: " + d + "/comments.txt"), std::string::npos) << m;
 
-  m = dataError([&] { traj::read(d + "/missing.txt"); });
+  m = test::dataError([&] { traj::read(d + "/missing.txt"); });
   EXPECT_NE(m.find("not found: " + d + "/missing.txt"), std::string::npos) << m;
 }
 
 TEST(TrajectoryIo, ZeroQuaternionIsRejected) {
   const std::string f = tempDir("trajio") + "/zq.txt";
   writeFile(f, std::string(kTumOk) + "1.2 0 0 0 0 0 0 0\n");
-  EXPECT_NE(dataError([&] { traj::read(f); }).find(f + ":4: zero quaternion"), std::string::npos);
+  EXPECT_NE(test::dataError([&] { traj::read(f); }).find(f + ":4: zero quaternion"), std::string::npos);
 }
 
 TEST(TrajectoryIo, UnknownColumnCountIsRejected) {
   const std::string f = tempDir("trajio") + "/five.txt";
   writeFile(f, "# c\n1 2 3 4 5\n");
-  const std::string m = dataError([&] { traj::read(f); });
+  const std::string m = test::dataError([&] { traj::read(f); });
   EXPECT_NE(m.find(f + ":2: cannot tell the trajectory format from 5 columns"), std::string::npos) << m;
 }
 
@@ -175,44 +161,44 @@ TEST(TrajectoryIo, DetectsFormats) {
 TEST(TrajectoryIo, KittiBadInputs) {
   const std::string d = tempDir("trajio");
   writeFile(d + "/k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1\n");
-  std::string m = dataError([&] { traj::read(d + "/k.txt", fmt(traj::Format::Kitti)); });
+  std::string m = test::dataError([&] { traj::read(d + "/k.txt", fmt(traj::Format::Kitti)); });
   EXPECT_NE(m.find(d + "/k.txt:2: expected 12 values"), std::string::npos) << m;
 
   writeFile(d + "/k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 nan 0 0 1 0\n");
-  m = dataError([&] { traj::read(d + "/k.txt"); });
+  m = test::dataError([&] { traj::read(d + "/k.txt"); });
   EXPECT_NE(m.find(d + "/k.txt:2: field 8 is not finite"), std::string::npos) << m;
 
   // Reflection (det < 0).
   writeFile(d + "/k.txt", "-1 0 0 0 0 1 0 0 0 0 1 0\n");
-  m = dataError([&] { traj::read(d + "/k.txt"); });
+  m = test::dataError([&] { traj::read(d + "/k.txt"); });
   EXPECT_NE(m.find(d + "/k.txt:1: rotation has determinant < 0"), std::string::npos) << m;
 
   // Times file shorter / longer than the poses file, non-numeric, empty.
   writeFile(d + "/k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n");
   writeFile(d + "/t1.txt", "0.0\n");
-  m = dataError([&] { traj::readKitti(d + "/k.txt", d + "/t1.txt"); });
+  m = test::dataError([&] { traj::readKitti(d + "/k.txt", d + "/t1.txt"); });
   EXPECT_NE(m.find(d + "/t1.txt: has 1 times but " + d + "/k.txt has more poses"), std::string::npos) << m;
   writeFile(d + "/t3.txt", "0.0\n0.1\n0.2\n");
-  m = dataError([&] { traj::readKitti(d + "/k.txt", d + "/t3.txt"); });
+  m = test::dataError([&] { traj::readKitti(d + "/k.txt", d + "/t3.txt"); });
   EXPECT_NE(m.find(d + "/t3.txt: has 3 times but " + d + "/k.txt has 2 poses"), std::string::npos) << m;
   writeFile(d + "/tx.txt", "0.0\nabc\n");
-  m = dataError([&] { traj::readKitti(d + "/k.txt", d + "/tx.txt"); });
+  m = test::dataError([&] { traj::readKitti(d + "/k.txt", d + "/tx.txt"); });
   EXPECT_NE(m.find(d + "/tx.txt:2: field 1 is not a number: 'abc'"), std::string::npos) << m;
   writeFile(d + "/t0.txt", "# no times\n");
-  m = dataError([&] { traj::readKitti(d + "/k.txt", d + "/t0.txt"); });
+  m = test::dataError([&] { traj::readKitti(d + "/k.txt", d + "/t0.txt"); });
   EXPECT_NE(m.find("times file has no times: " + d + "/t0.txt"), std::string::npos) << m;
   writeFile(d + "/tb.txt", "0.2\n0.1\n");
-  m = dataError([&] { traj::readKitti(d + "/k.txt", d + "/tb.txt"); });
+  m = test::dataError([&] { traj::readKitti(d + "/k.txt", d + "/tb.txt"); });
   EXPECT_NE(m.find(d + "/k.txt:2: timestamps must increase"), std::string::npos) << m;
 }
 
 TEST(TrajectoryIo, EurocBadInputs) {
   const std::string d = tempDir("trajio");
   writeFile(d + "/e.csv", "#timestamp [ns],x,y,z,qw,qx,qy,qz\n1000000000,0,0,0,1,0,0,0\n2000000000,0,0,0,1,0,0\n");
-  std::string m = dataError([&] { traj::read(d + "/e.csv"); });
+  std::string m = test::dataError([&] { traj::read(d + "/e.csv"); });
   EXPECT_NE(m.find(d + "/e.csv:3: expected 8 values"), std::string::npos) << m;
   writeFile(d + "/e.csv", "#timestamp [ns],x,y,z,qw,qx,qy,qz\n2000000000,0,0,0,1,0,0,0\n1000000000,0,0,0,1,0,0,0\n");
-  m = dataError([&] { traj::read(d + "/e.csv"); });
+  m = test::dataError([&] { traj::read(d + "/e.csv"); });
   EXPECT_NE(m.find(d + "/e.csv:3: timestamps must increase"), std::string::npos) << m;
 }
 
