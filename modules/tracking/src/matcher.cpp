@@ -261,19 +261,9 @@ int Matcher::searchByBoW(KeyFrame* kf, TrackedFrame& F) const {
   if (kf->feat.empty() || F.feat.empty()) return searchByDescriptors(kf, F);
   return matchKeyFrameToFrame(kf, F, [&](auto&& visit) {
     // Only keypoints under the same vocabulary node (direct index) are compared.
-    auto it1 = kf->feat.begin(), end1 = kf->feat.end();
-    auto it2 = F.feat.begin(), end2 = F.feat.end();
-    while (it1 != end1 && it2 != end2) {
-      if (it1->node < it2->node) {
-        ++it1;
-      } else if (it2->node < it1->node) {
-        ++it2;
-      } else {
-        for (uint32_t i : it1->features) visit(i, it2->features);
-        ++it1;
-        ++it2;
-      }
-    }
+    kf->feat.forEachSharedNode(F.feat, [&](const auto& here, const auto& there) {
+      for (uint32_t i : here) visit(i, there);
+    });
   });
 }
 
@@ -306,19 +296,9 @@ int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>&
     rot.push_back(kf1->keys_un[i].angle - kf2->keys_un[bi].angle);
   };
   if (!kf1->feat.empty() && !kf2->feat.empty()) {
-    auto it1 = kf1->feat.begin(), end1 = kf1->feat.end();
-    auto it2 = kf2->feat.begin(), end2 = kf2->feat.end();
-    while (it1 != end1 && it2 != end2) {
-      if (it1->node < it2->node) {
-        ++it1;
-      } else if (it2->node < it1->node) {
-        ++it2;
-      } else {
-        for (uint32_t i : it1->features) tryPair(i, it2->features);
-        ++it1;
-        ++it2;
-      }
-    }
+    kf1->feat.forEachSharedNode(kf2->feat, [&](const auto& here, const auto& there) {
+      for (uint32_t i : here) tryPair(i, there);
+    });
   } else {
     std::vector<uint32_t> all(kf2->size());
     for (size_t j = 0; j < all.size(); j++) all[j] = static_cast<uint32_t>(j);

@@ -126,6 +126,23 @@ class FeatureVector {
   }
   /** Total number of features over all nodes. */
   size_t featureCount() const;
+  /** ORB-SLAM's SearchByBoW walk: for every node present in both vectors,
+ *  in node order, calls fn(features_here, features_there). */
+  template <class Fn>
+  void forEachSharedNode(const FeatureVector& other, Fn&& fn) const {
+    auto it1 = n_.begin(), it2 = other.n_.begin();
+    while (it1 != n_.end() && it2 != other.n_.end()) {
+      if (it1->node < it2->node) {
+        ++it1;
+      } else if (it2->node < it1->node) {
+        ++it2;
+      } else {
+        fn(it1->features, it2->features);
+        ++it1;
+        ++it2;
+      }
+    }
+  }
 
   bool operator==(const FeatureVector& o) const { return n_ == o.n_; }
   bool operator!=(const FeatureVector& o) const { return !(*this == o); }
