@@ -388,6 +388,11 @@ void Params::set(const std::string& key, const std::string& yaml_value) {
   given_.insert(key);
 }
 
+void Params::setString(const std::string& key, const std::string& value) {
+  y_->asMap()[node_t(key)] = node_t(value);
+  given_.insert(key);
+}
+
 namespace {
 bool needsQuotes(const std::string& s) {
   if (s.empty()) return true;

@@ -101,6 +101,9 @@ class Params {
 
   /** Overrides one value (YAML text for the value). */
   void set(const std::string& key, const std::string& yaml_value);
+  /** Overrides one value with a string taken as it is (no YAML parsing:
+   *  safe for paths and names with any characters). */
+  void setString(const std::string& key, const std::string& value);
 
   const SourceLocation& location() const { return where_; }
   std::string toYamlText() const;

@@ -29,7 +29,6 @@ class SE3 {
   Mat3 rotation() const { return q_.toRotationMatrix(); }
   const Vec3& translation() const { return t_; }
   Vec3& translation() { return t_; }
-  void setRotation(const Eigen::Quaterniond& q) { q_ = q.normalized(); }
 
   Mat4 matrix() const {
     Mat4 T = Mat4::Identity();

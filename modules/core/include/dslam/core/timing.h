@@ -33,17 +33,23 @@ class StageTimer {
   void writeMrptCsv(const std::string& path) const;
   std::string summary() const;  ///< one line per stage: median/mean/max ms
 
-  /** RAII scope: `{ auto s = timer.scope("orb", i); ... }` */
+  /** RAII timing of a block: `{ auto t = timer.scope("orb", i); ... }`, or
+   *  `StageTimer::Scope t(timer_ptr, "local_ba", i);` with a timer that may be
+   *  null (then nothing is recorded). Records when the block is left, also by
+   *  an exception. */
   class Scope {
    public:
-    Scope(StageTimer& t, std::string stage, int frame)
+    Scope(StageTimer* t, std::string stage, int frame)
         : t_(t), stage_(std::move(stage)), frame_(frame), t0_(nowSeconds()) {}
-    ~Scope() { t_.add(stage_, frame_, (nowSeconds() - t0_) * 1e3); }
+    Scope(StageTimer& t, std::string stage, int frame) : Scope(&t, std::move(stage), frame) {}
+    ~Scope() {
+      if (t_) t_->add(stage_, frame_, (nowSeconds() - t0_) * 1e3);
+    }
     Scope(const Scope&) = delete;
     Scope& operator=(const Scope&) = delete;
 
    private:
-    StageTimer& t_;
+    StageTimer* t_;
     std::string stage_;
     int frame_;
     double t0_;
