@@ -59,7 +59,6 @@ void Map::absorb(Map& other, const SE3& T_this_other) {
   other.kfs_.clear();
   other.all_kfs_.clear();
   other.points_.clear();
-  other.reference_points.clear();
   other.origin_.reset();
 }
 
@@ -69,7 +68,6 @@ void Map::clear() {
     for (auto& p : kf->points) p.reset();
   }
   for (auto& [i, p] : points_) p->replaced.reset();
-  reference_points.clear();
   points_.clear();
   kfs_.clear();
   all_kfs_.clear();

@@ -36,105 +36,37 @@ LocalMapperParams LocalMapperParams::fromParams(const Params& p) {
 }
 
 LocalMapper::LocalMapper(const LocalMapperParams& p, std::shared_ptr<Backend> backend, StageTimer* timer)
-    : p_(p), backend_(std::move(backend)), timer_(timer) {}
+    : p_(p), backend_(std::move(backend)), timer_(timer), worker_([this](KeyFramePtr& kf) { processOne(kf); }) {}
 
 LocalMapper::~LocalMapper() { stop(); }
 
-size_t LocalMapper::queuedKeyFrames() const {
-  std::lock_guard<std::mutex> lk(queue_mtx_);
-  return queue_.size();
-}
-
 void LocalMapper::insertKeyFrame(const KeyFramePtr& kf) {
-  {
-    std::lock_guard<std::mutex> lk(queue_mtx_);
-    queue_.push_back(kf);
-    abort_ba_ = true;
-  }
-  cv_.notify_one();
+  abort_ba_ = true;
+  worker_.push(kf);
 }
 
-void LocalMapper::processAll() {
-  for (;;) {
-    KeyFramePtr kf;
-    {
-      std::lock_guard<std::mutex> lk(queue_mtx_);
-      if (queue_.empty()) break;
-      kf = queue_.front();
-      queue_.pop_front();
-    }
-    processOne(kf);
-  }
-}
+void LocalMapper::processAll() { worker_.drain(); }
 
-void LocalMapper::start() {
-  if (thread_.joinable()) return;
-  finish_ = false;
-  thread_ = std::thread([this] { run(); });
-}
+void LocalMapper::start() { worker_.start(); }
 
-void LocalMapper::stop() {
-  if (!thread_.joinable()) return;
-  {
-    std::lock_guard<std::mutex> lk(queue_mtx_);
-    finish_ = true;
-  }
-  cv_.notify_all();
-  thread_.join();
-}
+void LocalMapper::stop() { worker_.stop(); }
 
 void LocalMapper::requestPause() {
-  if (!thread_.joinable()) return;
-  {
-    std::lock_guard<std::mutex> lk(queue_mtx_);
-    pause_req_ = true;
-    abort_ba_ = true;
-  }
-  cv_.notify_all();
-  std::unique_lock<std::mutex> lk(queue_mtx_);
-  cv_.wait(lk, [this] { return paused_.load() || !thread_.joinable(); });
+  if (!worker_.running()) return;
+  pause_req_ = true;
+  abort_ba_ = true;
+  worker_.pause();
 }
 
 void LocalMapper::resume() {
-  {
-    std::lock_guard<std::mutex> lk(queue_mtx_);
-    pause_req_ = false;
-  }
-  cv_.notify_all();
+  pause_req_ = false;
+  worker_.resume();
 }
 
 void LocalMapper::reset() {
-  std::lock_guard<std::mutex> lk(queue_mtx_);
-  queue_.clear();
+  worker_.clear();
   recent_points_.clear();
   cur_.reset();
-}
-
-void LocalMapper::run() {
-  for (;;) {
-    KeyFramePtr kf;
-    {
-      std::unique_lock<std::mutex> lk(queue_mtx_);
-      accept_ = true;
-      cv_.wait(lk, [this] { return finish_ || pause_req_ || !queue_.empty(); });
-      if (pause_req_) {
-        paused_ = true;
-        stopped_ = true;
-        cv_.notify_all();
-        cv_.wait(lk, [this] { return !pause_req_ || finish_; });
-        paused_ = false;
-        stopped_ = false;
-        continue;
-      }
-      if (queue_.empty() && finish_) break;
-      if (queue_.empty()) continue;
-      accept_ = false;
-      kf = queue_.front();
-      queue_.pop_front();
-    }
-    processOne(kf);
-  }
-  accept_ = true;
 }
 
 void LocalMapper::processOne(const KeyFramePtr& kf) {
@@ -149,9 +81,8 @@ void LocalMapper::processOne(const KeyFramePtr& kf) {
     if (kf->bad) return;
     if (bow_fn_) bow_fn_(kf.get());
     {
-      const double tk = nowSeconds();
+      StageTimer::Scope t(timer_, "keyframe", fr);
       processNewKeyFrame();
-      if (timer_) timer_->add("keyframe", fr, (nowSeconds() - tk) * 1e3);
     }
     mapPointCulling();
   }
@@ -163,14 +94,12 @@ void LocalMapper::processOne(const KeyFramePtr& kf) {
   abort_ba_ = false;
   if (queuedKeyFrames() == 0 && !pause_req_) {
     if (p_.local_ba && map_->numKeyFrames() > 2) {
-      const double tb = nowSeconds();
+      StageTimer::Scope t(timer_, "local_ba", fr);
       localBundleAdjustment();
-      if (timer_) timer_->add("local_ba", fr, (nowSeconds() - tb) * 1e3);
     }
     std::lock_guard<std::recursive_mutex> lk(map_->update_mutex);
     keyFrameCulling();
   }
-  processed_++;
   if (timer_) timer_->add("local_map", fr, (nowSeconds() - t0) * 1e3);
   if (on_kf_) on_kf_(kf);
 }
@@ -332,7 +261,6 @@ void LocalMapper::createNewMapPoints() {
       mp->updateNormalAndDepth();
       map_->addPoint(mp);
       recent_points_.push_back(mp);
-      created_++;
     }
   }
 }
@@ -485,7 +413,6 @@ void LocalMapper::keyFrameCulling() {
     }
     if (n > 0 && redundant > p_.kf_culling_redundancy * n) {
       kf->setBad();
-      culled_++;
     }
   }
 }

@@ -86,6 +86,17 @@ void Tracker::forgetMap(const Map* m) {
     }
 }
 
+const char* toString(TrackMethod m) {
+  switch (m) {
+    case TrackMethod::Init: return "init";
+    case TrackMethod::Motion: return "motion";
+    case TrackMethod::Reference: return "reference";
+    case TrackMethod::Reloc: return "reloc";
+    case TrackMethod::None: break;
+  }
+  return "none";
+}
+
 TrackResult Tracker::track(Frame frame) {
   frame_id_++;
   cur_ = TrackedFrame(std::move(frame), cam_, scale_);
@@ -96,7 +107,7 @@ TrackResult Tracker::track(Frame frame) {
     // A loaded map: the first frames are localised by relocalisation.
     if (map_->numKeyFrames() > 0 && relocalize() && trackLocalMap()) {
       state_ = TrackState::Ok;
-      res.method = "reloc";
+      res.method = TrackMethod::Reloc;
       res.relocalized = true;
       velocity_.reset();
       for (size_t i = 0; i < cur_.size(); i++)
@@ -106,7 +117,7 @@ TrackResult Tracker::track(Frame frame) {
     if (initialize()) {
       res.initialized = true;
       res.keyframe = true;
-      res.method = "init";
+      res.method = TrackMethod::Init;
       state_ = TrackState::Ok;
     }
   } else {
@@ -117,18 +128,18 @@ TrackResult Tracker::track(Frame frame) {
         if (p && p->replaced) p = MapPoint::resolve(p);
       if (!velocity_ || frame_id_ < last_reloc_frame_ + 2) {
         ok = trackReferenceKeyFrame();
-        res.method = "reference";
+        res.method = TrackMethod::Reference;
       } else {
         ok = trackWithMotionModel();
-        res.method = "motion";
+        res.method = TrackMethod::Motion;
         if (!ok) {
           ok = trackReferenceKeyFrame();
-          res.method = "reference";
+          res.method = TrackMethod::Reference;
         }
       }
     } else {
       ok = relocalize();
-      res.method = "reloc";
+      res.method = TrackMethod::Reloc;
       res.relocalized = ok;
     }
     cur_.ref_kf = ref_kf_;
@@ -168,7 +179,6 @@ TrackResult Tracker::track(Frame frame) {
   res.state = state_;
   res.T_cw = state_ == TrackState::Ok ? cur_.T_cw : std::nullopt;
   res.matches = state_ == TrackState::Ok ? matches_inliers_ : 0;
-  map_->reference_points = local_points_;
   // The frame's heavy image buffers are not needed by the next frame.
   cur_.f.input.image.release();
   cur_.f.input.image_right.release();

@@ -79,7 +79,7 @@ class KeyFrame {
   std::vector<MapPointPtr> validPoints() const;
   /** Number of points observed by at least min_obs keyframes. */
   int trackedPoints(int min_obs) const;
-  /** 3D position of keypoint i from its depth, in world (nullopt if no depth). */
+  /** World position of keypoint i from its depth into `Xw`; false (Xw untouched) if it has no depth. */
   bool unprojectStereo(size_t i, Eigen::Vector3d& Xw) const;
   /** Median depth of the points in this keyframe (ORB-SLAM ComputeSceneMedianDepth). */
   float sceneMedianDepth() const;
@@ -104,7 +104,6 @@ class KeyFrame {
 
   bool bad = false;
   bool not_erase = false;   ///< protected from culling (loop candidate)
-  bool to_be_erased = false;
   SE3 T_cp;                 ///< pose relative to the parent, kept when erased
 
   /** Removes the keyframe from the graph and the map (ORB-SLAM SetBadFlag). */

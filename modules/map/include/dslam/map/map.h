@@ -41,9 +41,6 @@ class Map {
   /** Keyframes ever created in this map, including erased ones. */
   const std::map<int64_t, KeyFramePtr>& allKeyFramesEver() const { return all_kfs_; }
 
-  /** Points tracked in the last frame (for display/PLY of the local map). */
-  std::vector<MapPointPtr> reference_points;
-
   /** Incremented by loop closure / merges / global BA (ORB-SLAM mnBigChangeIdx). */
   std::atomic<int> big_change{0};
 

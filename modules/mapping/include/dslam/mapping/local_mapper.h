@@ -6,20 +6,17 @@
  *  through a Backend plugin, redundant keyframe culling.
  *
  *  Sequential mode: the owner calls processAll() after each tracked frame
- *  (deterministic). Parallel mode: start() runs the same steps in a thread
- *  that waits on a condition variable for keyframes. */
+ *  (deterministic). Parallel mode: start() runs the same steps in a
+ *  dslam::Worker thread that takes keyframes from its queue. */
 #include <atomic>
-#include <condition_variable>
-#include <deque>
 #include <functional>
 #include <list>
 #include <memory>
-#include <mutex>
-#include <thread>
 
 #include "dslam/core/backend.h"
 #include "dslam/core/params.h"
 #include "dslam/core/timing.h"
+#include "dslam/core/worker.h"
 #include "dslam/map/map.h"
 #include "dslam/tracking/tracker.h"
 
@@ -49,9 +46,9 @@ class LocalMapper : public KeyFrameSink {
   void setKeyFrameCallback(std::function<void(const KeyFramePtr&)> cb) { on_kf_ = std::move(cb); }
 
   // KeyFrameSink
-  bool acceptsKeyFrames() const override { return accept_; }
-  size_t queuedKeyFrames() const override;
-  bool isStopped() const override { return stopped_; }
+  bool acceptsKeyFrames() const override { return !worker_.busy(); }
+  size_t queuedKeyFrames() const override { return worker_.queued(); }
+  bool isStopped() const override { return worker_.paused(); }
   void interruptBA() override { abort_ba_ = true; }
   void insertKeyFrame(const KeyFramePtr& kf) override;
 
@@ -60,18 +57,16 @@ class LocalMapper : public KeyFrameSink {
   /** Parallel mode. */
   void start();
   void stop();  ///< finishes the queue and joins the thread
-  /** Loop closing asks local mapping to pause (returns once paused) / resume. */
+  /** Asks local mapping to hold between keyframes: returns once the keyframe
+   *  being processed is finished (its local BA is asked to stop early and is
+   *  skipped if it has not started); queued keyframes wait. resume() lets it
+   *  go on. No-ops in sequential mode. */
   void requestPause();
   void resume();
   /** Clears the queue and recent points (map reset). */
   void reset();
 
-  int keyframesProcessed() const { return processed_; }
-  int keyframesCulled() const { return culled_; }
-  int pointsCreated() const { return created_; }
-
  private:
-  void run();
   void processOne(const KeyFramePtr& kf);
   void processNewKeyFrame();
   void mapPointCulling();
@@ -87,15 +82,10 @@ class LocalMapper : public KeyFrameSink {
   std::function<void(const KeyFramePtr&)> on_kf_;
   std::function<void(KeyFrame*)> bow_fn_;
 
-  mutable std::mutex queue_mtx_;
-  std::condition_variable cv_;
-  std::deque<KeyFramePtr> queue_;
   KeyFramePtr cur_;
   std::list<MapPointPtr> recent_points_;
-  std::atomic<bool> accept_{true}, abort_ba_{false}, stopped_{false}, finish_{false}, pause_req_{false};
-  std::atomic<bool> paused_{false};
-  std::thread thread_;
-  int processed_ = 0, culled_ = 0, created_ = 0;
+  std::atomic<bool> abort_ba_{false}, pause_req_{false};
+  Worker<KeyFramePtr> worker_;  ///< last member: its thread stops before the rest is destroyed
 };
 
 }  // namespace dslam

@@ -59,6 +59,16 @@ class KeyFrameSink {
 /** Source of relocalisation candidates (a keyframe database when a vocabulary exists). */
 using RelocCandidates = std::function<std::vector<KeyFrame*>(const TrackedFrame&)>;
 
+/** How a frame's pose was found. */
+enum class TrackMethod {
+  None,       ///< not tracked (or waiting to initialise)
+  Init,       ///< the frame initialised the map
+  Motion,     ///< constant-velocity motion model
+  Reference,  ///< matching against the reference keyframe
+  Reloc,      ///< relocalisation (keyframe database or nearest keyframes)
+};
+const char* toString(TrackMethod m);
+
 struct TrackResult {
   TrackState state = TrackState::NotInitialized;
   std::optional<SE3> T_cw;
@@ -66,7 +76,7 @@ struct TrackResult {
   bool keyframe = false;      ///< a keyframe was created from this frame
   bool initialized = false;   ///< this frame initialised the map
   bool relocalized = false;
-  std::string method;         ///< "motion", "reference", "reloc", "init"
+  TrackMethod method = TrackMethod::None;
 };
 
 class Tracker {
