@@ -20,7 +20,6 @@ class KeyFrameDatabase {
   explicit KeyFrameDatabase(std::shared_ptr<const Vocabulary> voc);
 
   const Vocabulary& vocabulary() const { return *voc_; }
-  std::shared_ptr<const Vocabulary> vocabularyPtr() const { return voc_; }
   /** Fills kf->bow / kf->feat (levelsup = levels - 2, ORB-SLAM's depth-2 grouping). */
   void computeBow(KeyFrame* kf) const;
   void computeBow(const cv::Mat& descriptors, BowVector& bow, FeatureVector& feat) const;

@@ -10,20 +10,21 @@
  *  one. Only active map points take part.
  *
  *  Sequential mode: processAll() after local mapping (deterministic);
- *  parallel mode: start() runs it in its own thread. */
-#include <atomic>
-#include <condition_variable>
-#include <deque>
+ *  parallel mode: start() runs it in a dslam::Worker thread.
+ *
+ *  Sources: loop_closer.cpp (parameters, queue, detection),
+ *  loop_verification.cpp (SE(3) RANSAC and guided matching),
+ *  loop_correction.cpp (fusion, essential graph, global BA). */
 #include <functional>
+#include <map>
 #include <memory>
-#include <mutex>
 #include <set>
 #include <string>
-#include <thread>
 
 #include "dslam/core/backend.h"
 #include "dslam/core/params.h"
 #include "dslam/core/timing.h"
+#include "dslam/core/worker.h"
 #include "dslam/loop_closing/keyframe_database.h"
 #include "dslam/core/map_manager.h"
 #include "dslam/map/map.h"
@@ -52,14 +53,17 @@ struct LoopClosingParams {
 };
 
 struct LoopEvent {
-  std::string type;          ///< "loop" | "merge"
+  enum class Type { Loop, Merge };
+  Type type = Type::Loop;
   int frame = -1;            ///< frame of the current keyframe
   int64_t kf = -1, other_kf = -1;
   int64_t map = -1, other_map = -1;
   int inliers = 0, matches = 0;
   double correction_m = 0, correction_deg = 0;  ///< change of the current keyframe's pose
-  std::string json() const;
+  std::string json() const;  ///< one JSON object, "event": "loop" | "merge"
 };
+
+const char* toString(LoopEvent::Type t);
 
 class LoopCloser {
  public:
@@ -88,14 +92,13 @@ class LoopCloser {
     int inliers = 0, total = 0;
   };
 
-  void run();
   void process(const KeyFramePtr& kf);
   bool verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Candidate& out);
   bool ransacSE3(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, SE3& T12,
                  std::vector<char>& inlier);
   int countInliers(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, const SE3& T12,
                    std::vector<char>* inlier) const;
-  void correctLoop(KeyFrame* cur, Candidate& c, const std::string& type, const std::shared_ptr<Map>& other);
+  void correctLoop(KeyFrame* cur, Candidate& c, LoopEvent::Type type, const std::shared_ptr<Map>& other);
   void essentialGraph(Map& map, KeyFrame* fixed_kf, KeyFrame* cur, const std::map<int64_t, SE3>& non_corrected,
                       const std::map<int64_t, std::set<int64_t>>& new_links);
   void globalBundleAdjustment(Map& map);
@@ -110,12 +113,7 @@ class LoopCloser {
 
   int64_t last_loop_kf_ = -1000000;
   int loops_ = 0, merges_ = 0;
-
-  std::mutex mtx_;
-  std::condition_variable cv_;
-  std::deque<KeyFramePtr> queue_;
-  bool busy_ = false, finish_ = false;
-  std::thread thread_;
+  Worker<KeyFramePtr> worker_;  ///< last member: its thread stops before the rest is destroyed
 };
 
 }  // namespace dslam
