@@ -42,7 +42,7 @@ TEST(Pipeline, LoadsAndFillsDefaults) {
   EXPECT_EQ(pc.seed, 7u);
   ASSERT_TRUE(pc.dataset);
   EXPECT_EQ(pc.dataset->type, "dslam::TumDataset");
-  EXPECT_EQ(pc.dataset->on_bad_frame, "skip");
+  EXPECT_EQ(pc.dataset->on_bad_frame, config::OnBadFrame::Skip);
   EXPECT_EQ(pc.dataset->params.getString("path"), "/cfg/data/seq");
   EXPECT_DOUBLE_EQ(pc.dataset->params.getDouble("max_dt"), 0.02);
   ASSERT_TRUE(pc.camera);

@@ -142,7 +142,7 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
     Params dp = L.section(datasetCommonParamSpecs(), d, "dataset");
     DatasetConfig dc;
     dc.type = dp.getString("type");
-    dc.on_bad_frame = dp.getString("on_bad_frame");
+    dc.on_bad_frame = dp.getString("on_bad_frame") == "skip" ? OnBadFrame::Skip : OnBadFrame::Fail;
     dc.start = static_cast<int>(dp.getInt("start"));
     dc.max_frames = static_cast<int>(dp.getInt("max_frames"));
     dc.stride = static_cast<int>(dp.getInt("stride"));
@@ -274,6 +274,8 @@ static std::string paramsBlock(const Params& p, int n) {
   return "\n" + indent(t, n);
 }
 
+const char* toString(OnBadFrame b) { return b == OnBadFrame::Skip ? "skip" : "fail"; }
+
 std::string PipelineConfig::toYaml() const {
   std::ostringstream o;
   o << "# dslam resolved configuration (every default filled in)\n";
@@ -281,7 +283,7 @@ std::string PipelineConfig::toYaml() const {
   o << "pipeline:\n  name: " << name << "\n  mode: " << (mode == Mode::Parallel ? "parallel" : "sequential")
     << "\n  seed: " << seed << "\n";
   if (dataset) {
-    o << "dataset:\n  type: " << dataset->type << "\n  on_bad_frame: " << dataset->on_bad_frame
+    o << "dataset:\n  type: " << dataset->type << "\n  on_bad_frame: " << toString(dataset->on_bad_frame)
       << "\n  start: " << dataset->start << "\n  max_frames: " << dataset->max_frames
       << "\n  stride: " << dataset->stride << "\n  params:" << paramsBlock(dataset->params, 4);
   }

@@ -37,10 +37,15 @@ struct ModuleConfig {
   SourceLocation where;
 };
 
+/** What `dslam run` does with a frame the reader cannot read (missing or
+ *  corrupt image): stop with the error, or skip it with a warning. */
+enum class OnBadFrame { Fail, Skip };
+const char* toString(OnBadFrame b);
+
 struct DatasetConfig {
   std::string type;
   Params params;
-  std::string on_bad_frame = "fail";  ///< fail | skip
+  OnBadFrame on_bad_frame = OnBadFrame::Fail;
   int start = 0;
   int max_frames = -1;
   int stride = 1;
