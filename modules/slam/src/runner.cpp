@@ -1,4 +1,9 @@
-// runPipeline(): the `dslam run` command (dataset loop, outputs, summary).
+// runPipeline(): the `dslam run` command. Steps, one function each: the
+// dataset section and its reader, the camera, the output folder, the System
+// with its plug-ins, the frame loop, the output files and the summary.
+#include <mrpt/containers/yaml.h>
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -16,32 +21,23 @@
 #include "dslam/trajectory/io.h"
 
 namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
 
 namespace dslam {
 
 namespace {
 
-std::string jsonEscape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') {
-      o += "\\n";
-      continue;
-    }
-    o += c;
-  }
-  return o;
-}
-
+/** events.jsonl: one JSON object per line, flushed at once. */
 struct EventLog {
   std::ofstream f;
   void open(const std::string& path) {
     if (!path.empty()) f.open(path);
   }
-  void write(const std::string& json) {
-    if (f) f << json << "\n" << std::flush;
+  void write(const std::string& line) {
+    if (f) f << line << "\n" << std::flush;
   }
+  void write(const json& e) { write(e.dump()); }
+  void frameEvent(const char* what, size_t frame) { write(json{{"event", what}, {"frame", frame}}); }
 };
 
 std::shared_ptr<Plugin> makeModule(const config::ModuleConfig& m, const PluginContext& base) {
@@ -52,71 +48,68 @@ std::shared_ptr<Plugin> makeModule(const config::ModuleConfig& m, const PluginCo
   return p;
 }
 
-}  // namespace
-
-RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov) {
-  RunSummary sum;
-  // ---- dataset ------------------------------------------------------------
-  std::string ds_type;
-  Params ds_params;
+/** The dataset section that applies: the file's, or one detected from
+ *  --dataset; --dataset replaces only the path. */
+config::DatasetConfig datasetConfig(const config::PipelineConfig& pc, const RunOverrides& ov) {
   config::DatasetConfig dc;
   if (pc.dataset) dc = *pc.dataset;
-  if (!ov.dataset.empty()) {
-    if (!fs::exists(ov.dataset)) throw DataError("dataset not found: " + ov.dataset);
-    if (pc.dataset) {
-      // The file's reader and parameters; only the path changes.
-      dc.type = pc.dataset->type;
-      dc.params = pc.dataset->params;
-    } else {
-      const std::string detected = config::detectDatasetType(ov.dataset);
-      if (detected.empty())
-        throw DataError("cannot tell the dataset type of " + ov.dataset +
-                        " (expected a TUM/Bonn folder with rgb.txt, a KITTI folder with calib.txt, an EuRoC folder with "
-                        "mav0/, or a .rawlog file)");
-      dc.type = detected;
-      auto reader = createPlugin(detected, CLASS_ID(DatasetSource));
-      dc.params = Params::resolve(reader->paramSpecs(), "path: \"" + ov.dataset + "\"\n");
-    }
-    dc.params.set("path", "\"" + fs::absolute(ov.dataset).lexically_normal().string() + "\"");
-  } else if (!pc.dataset) {
-    throw ConfigError("no dataset: add a 'dataset:' section to " + (pc.file.empty() ? std::string("the pipeline") : pc.file) +
-                      " or pass --dataset PATH");
+  if (ov.dataset.empty()) {
+    if (!pc.dataset)
+      throw ConfigError("no dataset: add a 'dataset:' section to " +
+                        (pc.file.empty() ? std::string("the pipeline") : pc.file) + " or pass --dataset PATH");
+    return dc;
   }
-  auto reader = create<DatasetSource>(dc.type);
-  PluginContext base;
-  base.config_dir = pc.dir;
-  base.shared_dir = sharedDir();
-  base.seed = pc.seed;
-  reader->configure(dc.params, base);
-  base.dataset_root = reader->root();
+  if (!fs::exists(ov.dataset)) throw DataError("dataset not found: " + ov.dataset);
+  if (!pc.dataset) {
+    const std::string detected = config::detectDatasetType(ov.dataset);
+    if (detected.empty())
+      throw DataError("cannot tell the dataset type of " + ov.dataset +
+                      " (expected a TUM/Bonn folder with rgb.txt, a KITTI folder with calib.txt, an EuRoC folder with "
+                      "mav0/, or a .rawlog file)");
+    dc.type = detected;
+    auto reader = createPlugin(detected, CLASS_ID(DatasetSource));
+    mrpt::containers::yaml given = mrpt::containers::yaml::Map();
+    given["path"] = ov.dataset;
+    dc.params = Params::resolve(reader->paramSpecs(), &given, SourceLocation{});
+  }
+  dc.params.setString("path", fs::absolute(ov.dataset).lexically_normal().string());
+  return dc;
+}
 
-  // ---- camera -------------------------------------------------------------
+CameraModel resolveCamera(const config::PipelineConfig& pc, const DatasetSource& reader) {
   std::optional<CameraModel> cam = pc.camera;
-  if (!cam) cam = reader->camera();
-  if (!cam) throw ConfigError("no camera: the dataset carries no calibration; add a 'camera:' section (or $include{../cameras/<name>.yaml})");
-  base.camera = &*cam;
+  if (!cam) cam = reader.camera();
+  if (!cam)
+    throw ConfigError(
+        "no camera: the dataset carries no calibration; add a 'camera:' section (or "
+        "$include{../cameras/<name>.yaml})");
+  return *cam;
+}
 
-  // ---- output folder --------------------------------------------------------
+/** Output file of `outputs.<key>` in the run folder; "" when switched off. */
+std::string outPath(const config::PipelineConfig& pc, const std::string& out, const char* key) {
+  const std::string n = pc.outputs.getString(key);
+  return n.empty() ? std::string() : (fs::path(out) / n).string();
+}
+
+std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverrides& ov,
+                             const config::DatasetConfig& dc, const CameraModel& cam) {
   std::string out = ov.out_dir;
   if (out.empty()) out = pc.outputs.getString("dir");
   if (out.empty()) out = "out/" + pc.name;
   fs::create_directories(out);
-  sum.out_dir = out;
-  auto outPath = [&](const char* key) {
-    const std::string n = pc.outputs.getString(key);
-    return n.empty() ? std::string() : (fs::path(out) / n).string();
-  };
-  {
+  if (const std::string rc = outPath(pc, out, "resolved_config"); !rc.empty()) {
     config::PipelineConfig resolved = pc;
     resolved.dataset = dc;
     resolved.camera = cam;
-    if (const std::string rc = outPath("resolved_config"); !rc.empty()) {
-      std::ofstream f(rc);
-      f << resolved.toYaml();
-    }
+    std::ofstream f(rc);
+    f << resolved.toYaml();
   }
+  return out;
+}
 
-  // ---- system -------------------------------------------------------------
+std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const RunOverrides& ov,
+                                       const CameraModel& cam, const PluginContext& base) {
   SlamParams sp = SlamParams::fromConfig(pc);
   if (ov.localization_only) sp.tracker.localization_only = true;
   std::shared_ptr<Backend> backend;
@@ -130,52 +123,41 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   for (const auto* m : pc.modulesOf("MapManager"))
     if (!maps) maps = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
 
-  System sys(*cam, sp, backend, pc.mode, maps);
-  if (!ov.load_atlas.empty()) sys.loadMaps(ov.load_atlas);
-  for (const auto* m : pc.modulesOf("Detector")) {
-    auto d = std::dynamic_pointer_cast<Detector>(makeModule(*m, base));
-    sys.addDetector(m->name, d, m->every);
-  }
+  auto sys = std::make_unique<System>(cam, sp, backend, pc.mode, maps);
+  if (!ov.load_atlas.empty()) sys->loadMaps(ov.load_atlas);
+  const auto detectors = pc.modulesOf("Detector");
+  for (const auto* m : detectors)
+    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every);
   for (const auto* m : pc.modulesOf("KeypointClassifier")) {
     auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));
     std::string input;
     for (const auto& in : m->inputs)
-      for (const auto* d : pc.modulesOf("Detector"))
+      for (const auto* d : detectors)
         if (d->name == in) input = in;
-    sys.addClassifier(m->name, c, input);
+    sys->addClassifier(m->name, c, input);
   }
+  return sys;
+}
 
-  EventLog ev;
-  ev.open(outPath("events"));
-  std::ofstream frames_csv;
-  if (const std::string fp = outPath("frames_csv"); !fp.empty()) {
-    frames_csv.open(fp);
-    if (!frames_csv) throw DataError("cannot write per-frame CSV: " + fp);
-    frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count\n";
-  }
-  sys.setEventSink([&ev](const std::string& json) { ev.write(json); });
-
-  // ---- frame loop ---------------------------------------------------------
-  const size_t n_all = reader->size();
-  const size_t start = static_cast<size_t>(std::max(0, dc.start));
-  const size_t stride = static_cast<size_t>(std::max(1, dc.stride));
-  size_t n = start < n_all ? (n_all - start + stride - 1) / stride : 0;
-  int maxf = ov.max_frames > 0 ? ov.max_frames : dc.max_frames;
-  if (maxf > 0) n = std::min(n, static_cast<size_t>(maxf));
-  DSLAM_LOG(Info, "pipeline '" << pc.name << "' (" << (pc.mode == config::Mode::Parallel ? "parallel" : "sequential")
-                               << ") on " << reader->root() << ": " << n << " frames, camera " << cam->name << " "
-                               << cam->left.width << "x" << cam->left.height << ", output " << out);
-  log::Progress progress("tracking", n, 100);
+/** What the frame loop leaves behind. */
+struct LoopOutcome {
   std::vector<double> frame_ms;
-  TrackState prev_state = TrackState::NotInitialized;
   std::exception_ptr failure;
-  const double wall0 = nowSeconds();
+};
+
+/** Tracks frames [start, start + n*stride) of `reader`; the next frame is read
+ *  and decoded on a helper thread while the current one is processed
+ *  (reading is deterministic, so sequential runs stay repeatable). */
+LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetConfig& dc, size_t start,
+                      size_t stride, size_t n, const RunOverrides& ov, EventLog& ev, std::ofstream& frames_csv,
+                      RunSummary& sum) {
+  LoopOutcome lo;
+  log::Progress progress("tracking", n, 100);
+  TrackState prev_state = TrackState::NotInitialized;
   size_t done = 0;
   try {
-    // The next frame is read and decoded on a helper thread while this one is
-    // processed (reading is deterministic, so sequential runs stay repeatable).
     auto readAsync = [&](size_t k) {
-      return std::async(std::launch::async, [&reader, i = start + k * stride] { return reader->read(i); });
+      return std::async(std::launch::async, [&reader, i = start + k * stride] { return reader.read(i); });
     };
     std::future<SensorFrame> next;
     if (n > 0) next = readAsync(0);
@@ -192,20 +174,18 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
       try {
         if (read_error) std::rethrow_exception(read_error);
       } catch (const DataError& e) {
-        if (dc.on_bad_frame != "skip") throw;
+        if (dc.on_bad_frame != config::OnBadFrame::Skip) throw;
         DSLAM_LOG(Warn, "skipping frame " << i << ": " << e.what());
-        ev.write("{\"event\": \"bad_frame\", \"frame\": " + std::to_string(i) + ", \"error\": \"" + jsonEscape(e.what()) + "\"}");
+        ev.write(json{{"event", "bad_frame"}, {"frame", i}, {"error", e.what()}});
         continue;
       }
       const FrameResult r = sys.track(sf);
-      frame_ms.push_back(r.ms_total);
+      lo.frame_ms.push_back(r.ms_total);
       sum.frames++;
       if (r.track.state == TrackState::Ok) sum.tracked++;
-      if (r.track.initialized)
-        ev.write("{\"event\": \"map_initialised\", \"frame\": " + std::to_string(i) + ", \"map\": " + std::to_string(sys.map()->id) + "}");
-      if (r.track.relocalized) ev.write("{\"event\": \"relocalised\", \"frame\": " + std::to_string(i) + "}");
-      if (r.track.state == TrackState::Lost && prev_state == TrackState::Ok)
-        ev.write("{\"event\": \"lost\", \"frame\": " + std::to_string(i) + "}");
+      if (r.track.initialized) ev.write(json{{"event", "map_initialised"}, {"frame", i}, {"map", sys.map()->id}});
+      if (r.track.relocalized) ev.frameEvent("relocalised", i);
+      if (r.track.state == TrackState::Lost && prev_state == TrackState::Ok) ev.frameEvent("lost", i);
       if (frames_csv.is_open()) {
         char line[160];
         std::snprintf(line, sizeof(line), "%d,%.6f,%s,%zu,%zu,%d,%d\n", r.frame_index, r.timestamp,
@@ -215,81 +195,75 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
       }
       prev_state = r.track.state;
       done = k + 1;
-      if (!ov.quiet_progress) progress.update(done, std::string(toString(r.track.state)) + ", " + std::to_string(r.track.matches) + " matches");
+      if (!ov.quiet_progress)
+        progress.update(done, std::string(toString(r.track.state)) + ", " + std::to_string(r.track.matches) + " matches");
     }
   } catch (...) {
-    failure = std::current_exception();
-    DSLAM_LOG(Error, "run stopped after " << done << " frames; writing the results so far to " << out);
+    lo.failure = std::current_exception();
+    DSLAM_LOG(Error, "run stopped after " << done << " frames; writing the results so far to " << sum.out_dir);
   }
-  sys.shutdown();
-  sys.setEventSink(nullptr);
-  sum.wall_s = nowSeconds() - wall0;
   if (!ov.quiet_progress) progress.finish();
+  return lo;
+}
 
-  // ---- outputs ------------------------------------------------------------
-  std::vector<int> lost;
-  const Trajectory traj = sys.cameraTrajectory(&lost);
-  if (const std::string tp = outPath("trajectory"); !tp.empty()) {
-    traj::WriteOptions wo;
-    wo.format = traj::formatFromString(pc.outputs.getString("trajectory_format"));
-    wo.kitti_with_times = true;
-    std::ostringstream h;
-    h << "dslam camera trajectory (T_wc), pipeline " << pc.name << "\n"
-      << "tracked frames only: " << traj.size() << " of " << sum.frames << " processed frames";
-    if (!lost.empty()) {
-      h << "; not tracked (omitted):";
-      for (size_t i = 0; i < lost.size() && i < 200; i++) h << " " << lost[i];
-      if (lost.size() > 200) h << " ...";
-    }
-    h << "\ntimestamp tx ty tz qx qy qz qw";
-    wo.header = h.str();
-    traj::write(tp, traj, wo);
+void writeTrajectory(const std::string& path, const config::PipelineConfig& pc, const Trajectory& traj,
+                     const std::vector<int>& lost, size_t frames) {
+  traj::WriteOptions wo;
+  wo.format = traj::formatFromString(pc.outputs.getString("trajectory_format"));
+  wo.kitti_with_times = true;
+  std::ostringstream h;
+  h << "dslam camera trajectory (T_wc), pipeline " << pc.name << "\n"
+    << "tracked frames only: " << traj.size() << " of " << frames << " processed frames";
+  if (!lost.empty()) {
+    h << "; not tracked (omitted):";
+    for (size_t i = 0; i < lost.size() && i < 200; i++) h << " " << lost[i];
+    if (lost.size() > 200) h << " ...";
   }
-  const Trajectory kft = sys.keyframeTrajectory();
-  if (const std::string kp = outPath("keyframe_trajectory"); !kp.empty())
-    traj::writeTum(kp, kft, "dslam keyframe trajectory (T_wc), pipeline " + pc.name);
-  if (const std::string mp = outPath("map"); !mp.empty()) sys.writePly(mp);
-  if (const std::string tc = outPath("timing_csv"); !tc.empty()) {
-    sys.timer().writeCsv(tc);
-    sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());
-  }
-  if (const std::string ap = ov.save_atlas.empty() ? outPath("atlas") : ov.save_atlas; !ap.empty())
-    sys.mapManager().save(ap);
+  h << "\ntimestamp tx ty tz qx qy qz qw";
+  wo.header = h.str();
+  traj::write(path, traj, wo);
+}
 
-  sum.keyframes = kft.size();
-  sum.map_points = sys.map()->numPoints();
-  sum.maps = sys.mapManager().maps().size();
-  sum.median_ms = median(frame_ms);
-  double tot = 0;
-  for (double x : frame_ms) tot += x;
-  sum.mean_ms = frame_ms.empty() ? 0 : tot / frame_ms.size();
-  sum.fps = sum.wall_s > 0 ? sum.frames / sum.wall_s : 0;
+/** ATE against the reader's ground truth, as text for the summary. */
+std::string evaluateAte(const DatasetSource& reader, const Trajectory& traj, RunSummary& sum) {
+  const Trajectory& gt = reader.groundTruth();
+  if (gt.empty() || traj.size() < 3) return "n/a (no ground truth)";
+  try {
+    eval::AteOptions ao;
+    ao.align = eval::Align::SE3;
+    const auto ate = eval::computeAte(gt, traj, ao);
+    sum.ate_rmse = ate.stats.rmse;
+    sum.ate_pairs = ate.stats.count;
+    char b[128];
+    std::snprintf(b, sizeof(b), "%.4f m RMSE (%zu pairs, SE(3) alignment)", ate.stats.rmse, ate.stats.count);
+    return b;
+  } catch (const Error& e) {
+    return std::string("n/a: ") + e.what();
+  }
+}
 
-  const Trajectory& gt = reader->groundTruth();
-  std::string ate_txt = "n/a (no ground truth)";
-  if (!gt.empty() && traj.size() >= 3) {
-    try {
-      eval::AteOptions ao;
-      ao.align = eval::Align::SE3;
-      const auto ate = eval::computeAte(gt, traj, ao);
-      sum.ate_rmse = ate.stats.rmse;
-      sum.ate_pairs = ate.stats.count;
-      char b[128];
-      std::snprintf(b, sizeof(b), "%.4f m RMSE (%zu pairs, SE(3) alignment)", ate.stats.rmse, ate.stats.count);
-      ate_txt = b;
-    } catch (const Error& e) {
-      ate_txt = std::string("n/a: ") + e.what();
-    }
+void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc, const RunSummary& sum) {
+  json j;
+  j["pipeline"] = pc.name;
+  j["frames"] = sum.frames;
+  j["tracked"] = sum.tracked;
+  j["keyframes"] = sum.keyframes;
+  j["map_points"] = sum.map_points;
+  j["maps"] = sum.maps;
+  j["median_ms"] = sum.median_ms;
+  j["mean_ms"] = sum.mean_ms;
+  j["fps"] = sum.fps;
+  j["wall_s"] = sum.wall_s;
+  if (sum.ate_rmse) {
+    j["ate_rmse"] = *sum.ate_rmse;
+    j["ate_pairs"] = sum.ate_pairs;
   }
-  {
-    std::ofstream f((fs::path(out) / "summary.json").string());
-    f << "{\"pipeline\": \"" << jsonEscape(pc.name) << "\", \"frames\": " << sum.frames << ", \"tracked\": " << sum.tracked
-      << ", \"keyframes\": " << sum.keyframes << ", \"map_points\": " << sum.map_points << ", \"maps\": " << sum.maps
-      << ", \"median_ms\": " << sum.median_ms << ", \"mean_ms\": " << sum.mean_ms << ", \"fps\": " << sum.fps
-      << ", \"wall_s\": " << sum.wall_s;
-    if (sum.ate_rmse) f << ", \"ate_rmse\": " << *sum.ate_rmse << ", \"ate_pairs\": " << sum.ate_pairs;
-    f << "}\n";
-  }
+  std::ofstream f(path);
+  f << j.dump() << "\n";
+}
+
+void printSummary(const config::PipelineConfig& pc, const RunSummary& sum, const std::string& ate_txt,
+                  const StageTimer& timer) {
   std::ostringstream s;
   char b[256];
   s << "\n---- " << pc.name << " ----\n";
@@ -301,10 +275,87 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
                 sum.median_ms, sum.mean_ms, sum.fps);
   s << b;
   s << "ATE: " << ate_txt << "\n";
-  s << "stage timing (ms):\n" << sys.timer().summary();
-  s << "outputs: " << out << "\n";
+  s << "stage timing (ms):\n" << timer.summary();
+  s << "outputs: " << sum.out_dir << "\n";
   std::cout << s.str() << std::flush;
-  if (failure) std::rethrow_exception(failure);
+}
+
+/** Trajectories, map, timing and atlas files; fills the summary's counts. */
+Trajectory writeOutputs(System& sys, const config::PipelineConfig& pc, const RunOverrides& ov, RunSummary& sum) {
+  const std::string& out = sum.out_dir;
+  std::vector<int> lost;
+  Trajectory traj = sys.cameraTrajectory(&lost);
+  if (const std::string tp = outPath(pc, out, "trajectory"); !tp.empty())
+    writeTrajectory(tp, pc, traj, lost, sum.frames);
+  const Trajectory kft = sys.keyframeTrajectory();
+  if (const std::string kp = outPath(pc, out, "keyframe_trajectory"); !kp.empty())
+    traj::writeTum(kp, kft, "dslam keyframe trajectory (T_wc), pipeline " + pc.name);
+  if (const std::string mp = outPath(pc, out, "map"); !mp.empty()) sys.writePly(mp);
+  if (const std::string tc = outPath(pc, out, "timing_csv"); !tc.empty()) {
+    sys.timer().writeCsv(tc);
+    sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());
+  }
+  if (const std::string ap = ov.save_atlas.empty() ? outPath(pc, out, "atlas") : ov.save_atlas; !ap.empty())
+    sys.mapManager().save(ap);
+  sum.keyframes = kft.size();
+  sum.map_points = sys.map()->numPoints();
+  sum.maps = sys.mapManager().maps().size();
+  return traj;
+}
+
+}  // namespace
+
+RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov) {
+  RunSummary sum;
+  const config::DatasetConfig dc = datasetConfig(pc, ov);
+  auto reader = create<DatasetSource>(dc.type);
+  PluginContext base;
+  base.config_dir = pc.dir;
+  base.shared_dir = sharedDir();
+  base.seed = pc.seed;
+  reader->configure(dc.params, base);
+  base.dataset_root = reader->root();
+  const CameraModel cam = resolveCamera(pc, *reader);
+  base.camera = &cam;
+  sum.out_dir = prepareOutputDir(pc, ov, dc, cam);
+  const std::string& out = sum.out_dir;
+
+  std::unique_ptr<System> sys = assembleSystem(pc, ov, cam, base);
+  EventLog ev;
+  ev.open(outPath(pc, out, "events"));
+  std::ofstream frames_csv;
+  if (const std::string fp = outPath(pc, out, "frames_csv"); !fp.empty()) {
+    frames_csv.open(fp);
+    if (!frames_csv) throw DataError("cannot write per-frame CSV: " + fp);
+    frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count\n";
+  }
+  sys->setEventSink([&ev](const std::string& e) { ev.write(e); });
+
+  const size_t n_all = reader->size();
+  const size_t start = static_cast<size_t>(std::max(0, dc.start));
+  const size_t stride = static_cast<size_t>(std::max(1, dc.stride));
+  size_t n = start < n_all ? (n_all - start + stride - 1) / stride : 0;
+  const int maxf = ov.max_frames > 0 ? ov.max_frames : dc.max_frames;
+  if (maxf > 0) n = std::min(n, static_cast<size_t>(maxf));
+  DSLAM_LOG(Info, "pipeline '" << pc.name << "' (" << (pc.mode == config::Mode::Parallel ? "parallel" : "sequential")
+                               << ") on " << reader->root() << ": " << n << " frames, camera " << cam.name << " "
+                               << cam.left.width << "x" << cam.left.height << ", output " << out);
+  const double wall0 = nowSeconds();
+  LoopOutcome lo = frameLoop(*reader, *sys, dc, start, stride, n, ov, ev, frames_csv, sum);
+  sys->shutdown();
+  sys->setEventSink(nullptr);
+  sum.wall_s = nowSeconds() - wall0;
+
+  const Trajectory traj = writeOutputs(*sys, pc, ov, sum);
+  sum.median_ms = median(lo.frame_ms);
+  double tot = 0;
+  for (double x : lo.frame_ms) tot += x;
+  sum.mean_ms = lo.frame_ms.empty() ? 0 : tot / lo.frame_ms.size();
+  sum.fps = sum.wall_s > 0 ? sum.frames / sum.wall_s : 0;
+  const std::string ate_txt = evaluateAte(*reader, traj, sum);
+  writeSummaryJson((fs::path(out) / "summary.json").string(), pc, sum);
+  printSummary(pc, sum, ate_txt, sys->timer());
+  if (lo.failure) std::rethrow_exception(lo.failure);
   return sum;
 }
 

@@ -1,13 +1,14 @@
 #include "dslam/slam/system.h"
 
-#include <condition_variable>
+#include <nlohmann/json.hpp>
+
 #include <fstream>
-#include <mutex>
+#include <future>
 #include <set>
-#include <thread>
 
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
+#include "dslam/core/worker.h"
 #include "dslam/map/atlas.h"
 #include "dslam/map/map.h"
 #include "dslam/place_recognition/vocabulary.h"
@@ -78,75 +79,43 @@ SlamParams SlamParams::fromConfig(const config::PipelineConfig& pc) {
 namespace dslam {
 
 // ---------------------------------------------------------------------------
-// Detector worker: runs detect() in its own thread; the tracking thread waits
-// on a condition variable (no busy waiting).
+// Detector slot. Parallel mode: detect() runs on a dslam::Worker thread
+// concurrently with ORB extraction; the result (or the exception) comes back
+// through a promise, so the tracking thread waits without busy waiting.
 // ---------------------------------------------------------------------------
 
 struct System::DetectorSlot {
+  struct Job {
+    const SensorFrame* frame = nullptr;
+    std::promise<std::pair<Detections, double>> result;  ///< detections, ms
+  };
+
   std::string name;
   std::shared_ptr<Detector> det;
   int every = 1;
   Detections last;  ///< reused on skipped frames
-  // worker
-  std::thread th;
-  std::mutex m;
-  std::condition_variable cv;
-  const SensorFrame* job = nullptr;
-  bool has_result = false, quit = false;
-  Detections result;
-  std::exception_ptr error;
-  double ms = 0;
-
-  void startThread() {
-    th = std::thread([this] {
-      std::unique_lock<std::mutex> lk(m);
-      for (;;) {
-        cv.wait(lk, [this] { return quit || job != nullptr; });
-        if (quit) return;
-        const SensorFrame* f = job;
-        lk.unlock();
-        Detections d;
-        std::exception_ptr e;
-        const double t0 = nowSeconds();
-        try {
-          d = det->detect(*f);
-        } catch (...) {
-          e = std::current_exception();
-        }
-        const double dt = (nowSeconds() - t0) * 1e3;
-        lk.lock();
-        result = std::move(d);
-        error = e;
-        ms = dt;
-        job = nullptr;
-        has_result = true;
-        cv.notify_all();
-      }
-    });
-  }
-  void submit(const SensorFrame& f) {
-    std::lock_guard<std::mutex> lk(m);
-    job = &f;
-    has_result = false;
-    cv.notify_all();
-  }
-  Detections wait(double& out_ms) {
-    std::unique_lock<std::mutex> lk(m);
-    cv.wait(lk, [this] { return has_result; });
-    has_result = false;
-    if (error) std::rethrow_exception(error);
-    out_ms = ms;
-    return std::move(result);
-  }
-  ~DetectorSlot() {
-    if (th.joinable()) {
-      {
-        std::lock_guard<std::mutex> lk(m);
-        quit = true;
-      }
-      cv.notify_all();
-      th.join();
+  std::future<std::pair<Detections, double>> pending;
+  Worker<Job> worker{[this](Job& j) {
+    try {
+      const double t0 = nowSeconds();
+      Detections d = det->detect(*j.frame);
+      j.result.set_value({std::move(d), (nowSeconds() - t0) * 1e3});
+    } catch (...) {
+      j.result.set_exception(std::current_exception());
     }
+  }};
+
+  void submit(const SensorFrame& f) {
+    Job j;
+    j.frame = &f;
+    pending = j.result.get_future();
+    worker.push(std::move(j));
+  }
+  /** Detections of the submitted frame; rethrows the detector's exception. */
+  Detections wait(double& out_ms) {
+    auto r = pending.get();
+    out_ms = r.second;
+    return std::move(r.first);
   }
 };
 
@@ -230,8 +199,7 @@ void System::loadMaps(const std::string& path) {
   tracker_->setMap(maps_->currentMap());
 }
 
-void System::checkPlaceRecognition(const TrackResult& r) {
-  (void)r;
+void System::checkPlaceRecognition() {
   if (!loop_ || !p_.loop.enabled || p_.place.loop_check_every <= 0 || p_.tracker.localization_only) return;
   if (frames_ % static_cast<size_t>(p_.place.loop_check_every) != 0) return;
   const double t0 = nowSeconds();
@@ -265,7 +233,10 @@ void System::checkPlaceRecognition(const TrackResult& r) {
 
 void System::switchToNewMap(int frame) {
   auto old = maps_->currentMap();
-  // Let local mapping and loop closing finish with the old map first.
+  // Parallel mode: wait until local mapping is between keyframes (the one it
+  // is processing is finished; queued keyframes keep their map and are
+  // processed later) and loop closing has emptied its queue, so that neither
+  // works on the old map while it is discarded or set aside.
   if (mode_ == config::Mode::Parallel) {
     mapper_->requestPause();
     mapper_->resume();
@@ -288,10 +259,15 @@ void System::switchToNewMap(int frame) {
   tracker_->setMap(m);
   DSLAM_LOG(Info, "tracking lost for " << lost_frames_ << " frames: new map " << m->id << " at frame " << frame << "; "
                                        << what);
-  if (on_event_)
-    on_event_("{\"event\": \"new_map\", \"frame\": " + std::to_string(frame) + ", \"map\": " + std::to_string(m->id) +
-              ", \"previous_map\": " + std::to_string(old->id) + ", \"previous_kept\": " +
-              (n_kf < static_cast<size_t>(p_.place.min_keyframes_keep_map) ? "false" : "true") + "}");
+  if (on_event_) {
+    nlohmann::ordered_json e;
+    e["event"] = "new_map";
+    e["frame"] = frame;
+    e["map"] = m->id;
+    e["previous_map"] = old->id;
+    e["previous_kept"] = n_kf >= static_cast<size_t>(p_.place.min_keyframes_keep_map);
+    on_event_(e.dump());
+  }
   lost_frames_ = 0;
 }
 
@@ -304,7 +280,7 @@ void System::addDetector(const std::string& name, std::shared_ptr<Detector> det,
   s->name = name;
   s->det = std::move(det);
   s->every = std::max(1, every);
-  if (mode_ == config::Mode::Parallel) s->startThread();
+  if (mode_ == config::Mode::Parallel) s->worker.start();
   detectors_.push_back(std::move(s));
 }
 
@@ -320,15 +296,14 @@ void System::addClassifier(const std::string& name, std::shared_ptr<KeypointClas
   classifiers_.push_back(std::move(s));
 }
 
-FrameResult System::track(const SensorFrame& in) {
-  const double t0 = nowSeconds();
-  const int fi = in.index;
-  FrameResult res;
-  res.frame_index = fi;
-  res.timestamp = in.timestamp;
+namespace {
+const Detections kNoDetections;  ///< input of classifiers without a detector
+}  // namespace
 
-  // Detectors: start now (parallel: concurrently with ORB extraction).
-  std::vector<Detections> dets(detectors_.size());
+Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
+  const int fi = in.index;
+  // Detectors start first (parallel mode: concurrently with ORB extraction).
+  dets.assign(detectors_.size(), Detections{});
   std::vector<char> ran(detectors_.size(), 0);
   for (size_t d = 0; d < detectors_.size(); d++) {
     auto& s = *detectors_[d];
@@ -336,56 +311,72 @@ FrameResult System::track(const SensorFrame& in) {
     ran[d] = 1;
     if (mode_ == config::Mode::Parallel) s.submit(in);
   }
-
-  res.feature_count = frontend_->featureCount();
   Frame f;
-  {
-    const double ta = nowSeconds();
-    f = frontend_->process(in);
-    timer_.add("orb", fi, (nowSeconds() - ta) * 1e3);
-  }
-  for (size_t d = 0; d < detectors_.size(); d++) {
-    auto& s = *detectors_[d];
-    if (!ran[d]) {
-      dets[d] = s.last;
-      continue;
+  try {
+    {
+      auto t = timer_.scope("orb", fi);
+      f = frontend_->process(in);
     }
-    double ms = 0;
-    if (mode_ == config::Mode::Parallel) {
-      const double tw = nowSeconds();
-      dets[d] = s.wait(ms);
-      timer_.add("detector_wait", fi, (nowSeconds() - tw) * 1e3);
-    } else {
-      const double td = nowSeconds();
-      dets[d] = s.det->detect(in);
-      ms = (nowSeconds() - td) * 1e3;
+    for (size_t d = 0; d < detectors_.size(); d++) {
+      auto& s = *detectors_[d];
+      if (!ran[d]) {
+        dets[d] = s.last;
+        continue;
+      }
+      double ms = 0;
+      if (mode_ == config::Mode::Parallel) {
+        auto t = timer_.scope("detector_wait", fi);
+        dets[d] = s.wait(ms);
+      } else {
+        const double td = nowSeconds();
+        dets[d] = s.det->detect(in);
+        ms = (nowSeconds() - td) * 1e3;
+      }
+      timer_.add("detector", fi, ms);
+      dets[d].frame_index = fi;
+      s.last = dets[d];
     }
-    timer_.add("detector", fi, ms);
-    dets[d].frame_index = fi;
-    s.last = dets[d];
+  } catch (...) {
+    // Detector threads still read `in`: let them finish before it goes away.
+    for (auto& s : detectors_)
+      if (s->pending.valid()) s->pending.wait();
+    throw;
   }
+  return f;
+}
 
-  if (!classifiers_.empty()) {
-    const double tc = nowSeconds();
-    ClassifierContext ctx;
-    ctx.camera = &frontend_->camera();
-    ctx.previous = prev_frame_ ? &*prev_frame_ : nullptr;
-    ctx.previous_T_wc = prev_T_wc_;
-    if (auto pred = tracker_->predictedPose()) ctx.predicted_T_wc = pred->inverse();
-    ctx.base_feature_count = base_features_;
-    static const Detections kNone;
-    int want = 0;
-    for (auto& c : classifiers_) {
-      const Detections& d = c.detector >= 0 ? dets[c.detector] : kNone;
-      ctx.previous_detections = (c.detector >= 0 && c.detector < static_cast<int>(prev_dets_.size())) ? &prev_dets_[c.detector] : nullptr;
-      const double t1 = nowSeconds();
-      c.c->classify(f, d, ctx);
-      timer_.add("classifier_" + c.name, fi, (nowSeconds() - t1) * 1e3);
-      want = std::max(want, c.c->requestedFeatureCount());
-    }
-    frontend_->setFeatureCount(want > 0 ? want : base_features_);
-    timer_.add("classify", fi, (nowSeconds() - tc) * 1e3);
+void System::classify(Frame& f, const std::vector<Detections>& dets) {
+  const int fi = f.index();
+  auto t = timer_.scope("classify", fi);
+  ClassifierContext ctx;
+  ctx.camera = &frontend_->camera();
+  ctx.previous = prev_frame_ ? &*prev_frame_ : nullptr;
+  ctx.previous_T_wc = prev_T_wc_;
+  if (auto pred = tracker_->predictedPose()) ctx.predicted_T_wc = pred->inverse();
+  ctx.base_feature_count = base_features_;
+  int want = 0;
+  for (auto& c : classifiers_) {
+    const Detections& d = c.detector >= 0 ? dets[c.detector] : kNoDetections;
+    ctx.previous_detections =
+        (c.detector >= 0 && c.detector < static_cast<int>(prev_dets_.size())) ? &prev_dets_[c.detector] : nullptr;
+    auto tc = timer_.scope("classifier_" + c.name, fi);
+    c.c->classify(f, d, ctx);
+    want = std::max(want, c.c->requestedFeatureCount());
   }
+  frontend_->setFeatureCount(want > 0 ? want : base_features_);
+}
+
+FrameResult System::track(const SensorFrame& in) {
+  const double t0 = nowSeconds();
+  const int fi = in.index;
+  FrameResult res;
+  res.frame_index = fi;
+  res.timestamp = in.timestamp;
+  res.feature_count = frontend_->featureCount();
+
+  std::vector<Detections> dets;
+  Frame f = extract(in, dets);
+  if (!classifiers_.empty()) classify(f, dets);
   res.keypoints = f.size();
   res.dynamic_keypoints = f.countLabel(KpLabel::Dynamic);
 
@@ -394,21 +385,18 @@ FrameResult System::track(const SensorFrame& in) {
   if (keep_prev) copy = f;  // classifiers look at the previous frame (images and keypoints)
 
   {
-    const double tt = nowSeconds();
+    auto t = timer_.scope("track", fi);
     res.track = tracker_->track(std::move(f));
-    timer_.add("track", fi, (nowSeconds() - tt) * 1e3);
   }
   std::optional<SE3> T_wc;
   if (res.track.T_cw) T_wc = res.track.T_cw->inverse();
-  for (size_t k = 0; k < classifiers_.size(); k++) {
-    auto& c = classifiers_[k];
-    static const Detections kNone;
-    c.c->afterTracking(copy ? *copy : Frame{}, c.detector >= 0 ? dets[c.detector] : kNone, T_wc);
+  for (auto& c : classifiers_) {
+    c.c->afterTracking(copy ? *copy : Frame{}, c.detector >= 0 ? dets[c.detector] : kNoDetections, T_wc);
   }
   res.ms_total = (nowSeconds() - t0) * 1e3;
   timer_.add("frame", fi, res.ms_total);
 
-  if (res.track.state == TrackState::Ok && !res.track.keyframe) checkPlaceRecognition(res.track);
+  if (res.track.state == TrackState::Ok && !res.track.keyframe) checkPlaceRecognition();
   if (mode_ == config::Mode::Sequential) {
     mapper_->processAll();
     if (loop_) loop_->processAll();

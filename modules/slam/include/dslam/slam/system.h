@@ -6,9 +6,10 @@
  *  runPipeline() (the `dslam run` command).
  *
  *  Threads: `Mode::Sequential` runs everything in the caller's thread and is
- *  deterministic; `Mode::Parallel` runs local mapping in its own thread and
- *  each detector in a worker thread concurrently with ORB extraction (the
- *  tracker waits on a condition variable for the detections). */
+ *  deterministic; `Mode::Parallel` runs local mapping and loop closing in
+ *  their own threads and each detector on a dslam::Worker thread
+ *  concurrently with ORB extraction (the tracking thread then waits for the
+ *  detections on a future). */
 #include <memory>
 #include <optional>
 #include <string>
@@ -127,7 +128,11 @@ class System {
   std::shared_ptr<const ScaleLevels> scale_;
   int lost_frames_ = 0;
   void switchToNewMap(int frame);
-  void checkPlaceRecognition(const TrackResult& r);
+  void checkPlaceRecognition();
+  /** Runs the detectors (parallel: on their threads) and the ORB front end. */
+  Frame extract(const SensorFrame& in, std::vector<Detections>& dets);
+  /** The classifier chain on `f`; sets the next frame's feature count. */
+  void classify(Frame& f, const std::vector<Detections>& dets);
   void indexKeyFrames();
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
   std::vector<ClassifierSlot> classifiers_;
