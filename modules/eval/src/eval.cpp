@@ -1,5 +1,7 @@
 #include "dslam/eval/eval.h"
 
+#include <nlohmann/json.hpp>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -272,25 +274,15 @@ RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, const RpeOptio
 
 namespace {
 
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  return fmt("%.10g", v);
+/** JSON number; NaN/inf become null (as before: JSON has no NaN). */
+nlohmann::ordered_json num(double v) {
+  if (!std::isfinite(v)) return nullptr;
+  return v;
 }
 
-std::string jsonStr(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
-
-std::string statsJson(const Stats& s) {
-  std::ostringstream o;
-  o << "{\"rmse\": " << num(s.rmse) << ", \"mean\": " << num(s.mean) << ", \"median\": " << num(s.median)
-    << ", \"std\": " << num(s.std) << ", \"min\": " << num(s.min) << ", \"max\": " << num(s.max) << "}";
-  return o.str();
+nlohmann::ordered_json statsJson(const Stats& s) {
+  return {{"rmse", num(s.rmse)}, {"mean", num(s.mean)}, {"median", num(s.median)},
+          {"std", num(s.std)},   {"min", num(s.min)},   {"max", num(s.max)}};
 }
 
 std::string statsText(const Stats& s, const char* unit) {
@@ -314,23 +306,28 @@ std::string alignText(const Alignment& a) {
 }  // namespace
 
 std::string toJson(const AteResult& r) {
-  std::ostringstream o;
-  o << "{\"metric\": \"ate\", \"pairs\": " << r.stats.count << ", \"max_dt\": " << num(r.assoc.max_dt)
-    << ", \"align\": " << jsonStr(toString(r.alignment.method)) << ", \"scale\": " << num(r.alignment.scale)
-    << ", \"rmse\": " << num(r.stats.rmse) << ", \"mean\": " << num(r.stats.mean)
-    << ", \"median\": " << num(r.stats.median) << ", \"std\": " << num(r.stats.std)
-    << ", \"min\": " << num(r.stats.min) << ", \"max\": " << num(r.stats.max) << "}";
-  return o.str();
+  nlohmann::ordered_json j = {{"metric", "ate"},
+                              {"pairs", r.stats.count},
+                              {"max_dt", num(r.assoc.max_dt)},
+                              {"align", toString(r.alignment.method)},
+                              {"scale", num(r.alignment.scale)}};
+  const nlohmann::ordered_json stats = statsJson(r.stats);
+  for (const auto& [k, v] : stats.items()) j[k] = v;
+  return j.dump();
 }
 
 std::string toJson(const RpeResult& r) {
-  std::ostringstream o;
-  o << "{\"metric\": \"rpe\", \"pairs\": " << r.pairs.size() << ", \"associated\": " << r.assoc.size()
-    << ", \"max_dt\": " << num(r.assoc.max_dt) << ", \"align\": " << jsonStr(toString(r.alignment.method))
-    << ", \"scale\": " << num(r.alignment.scale) << ", \"delta\": " << num(r.options.delta)
-    << ", \"delta_unit\": " << jsonStr(toString(r.options.unit)) << ", \"trans\": " << statsJson(r.trans)
-    << ", \"rot\": " << statsJson(r.rot) << "}";
-  return o.str();
+  nlohmann::ordered_json j = {{"metric", "rpe"},
+                              {"pairs", r.pairs.size()},
+                              {"associated", r.assoc.size()},
+                              {"max_dt", num(r.assoc.max_dt)},
+                              {"align", toString(r.alignment.method)},
+                              {"scale", num(r.alignment.scale)},
+                              {"delta", num(r.options.delta)},
+                              {"delta_unit", toString(r.options.unit)},
+                              {"trans", statsJson(r.trans)},
+                              {"rot", statsJson(r.rot)}};
+  return j.dump();
 }
 
 std::string toText(const AteResult& r) {
