@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
 #include "dslam/core/registry.h"
@@ -33,20 +35,17 @@ std::shared_ptr<Backend> ceres() {
 
 struct RunOut {
   Trajectory traj;
-  std::vector<std::string> events;
+  std::vector<nlohmann::json> events;  ///< the System's events, parsed
   size_t tracked = 0, frames = 0, maps = 0;
   double ate = -1;
   int count(const std::string& type) const {
     int n = 0;
-    for (const auto& e : events) n += e.find("\"event\": \"" + type + "\"") != std::string::npos;
+    for (const auto& e : events) n += e.at("event") == type;
     return n;
   }
   int firstFrameOf(const std::string& type) const {
     for (const auto& e : events)
-      if (e.find("\"event\": \"" + type + "\"") != std::string::npos) {
-        const auto p = e.find("\"frame\": ");
-        return std::stoi(e.substr(p + 9));
-      }
+      if (e.at("event") == type) return e.at("frame").get<int>();
     return -1;
   }
 };
@@ -55,7 +54,7 @@ RunOut run(DatasetSource& ds, const SlamParams& sp, const std::function<void(Sen
         const std::string& save = "", const std::string& load = "") {
   System sys(*ds.camera(), sp, ceres());
   RunOut r;
-  sys.setEventSink([&r](const std::string& e) { r.events.push_back(e); });
+  sys.setEventSink([&r](const std::string& e) { r.events.push_back(nlohmann::json::parse(e)); });
   if (!load.empty()) sys.loadMaps(load);
   for (size_t i = 0; i < ds.size(); i++) {
     SensorFrame f = ds.read(i);

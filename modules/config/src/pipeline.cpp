@@ -107,14 +107,10 @@ struct Loader {
 
 }  // namespace
 
-static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir) {
-  Loader L{ly, base_dir};
-  PipelineConfig pc;
-  pc.file = ly.file;
-  pc.dir = base_dir;
-  const node_t& root = ly.root->node();
-  if (!root.isMap()) L.fail("", &root, "a pipeline file must be a YAML map with sections (pipeline, dataset, camera, modules, outputs)");
+namespace {
 
+/** Every top-level key must be a known section. */
+void checkSections(const Loader& L, const node_t& root) {
   std::vector<std::string> valid = {"pipeline", "dataset", "camera", "modules", "outputs", "plugin_dirs"};
   for (const auto& s : registeredSections()) valid.push_back(s.name);
   for (const auto& kv : root.asMap()) {
@@ -123,6 +119,124 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
     for (const auto& v : valid) ok |= (v == k);
     if (!ok) L.fail(k, &kv.first, "unknown section" + yamlu::didYouMean(k, valid) + " (valid: " + yamlu::join(valid) + ")");
   }
+}
+
+DatasetConfig loadDataset(const Loader& L, const node_t& d) {
+  Params dp = L.section(datasetCommonParamSpecs(), &d, "dataset");
+  DatasetConfig dc;
+  dc.type = dp.getString("type");
+  dc.on_bad_frame = dp.getString("on_bad_frame") == "skip" ? OnBadFrame::Skip : OnBadFrame::Fail;
+  dc.start = static_cast<int>(dp.getInt("start"));
+  dc.max_frames = static_cast<int>(dp.getInt("max_frames"));
+  dc.stride = static_cast<int>(dp.getInt("stride"));
+  std::shared_ptr<Plugin> reader;
+  try {
+    reader = createPlugin(dc.type, CLASS_ID(DatasetSource));
+  } catch (const ConfigError& e) {
+    L.fail("dataset.type", yamlu::findValue(d, "type"), e.what());
+  }
+  dc.params = L.section(reader->paramSpecs(), yamlu::findValue(d, "params"), "dataset.params");
+  return dc;
+}
+
+/** modules[i].every: detectors only, an integer >= 1. */
+int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const ModuleConfig& mc) {
+  const auto t = yamlu::scalarText(ev).value_or("");
+  char* end = nullptr;
+  const long n = std::strtol(t.c_str(), &end, 10);
+  if (t.empty() || *end != '\0' || n < 1 || n > 1000000)
+    L.fail(kp + ".every", &ev, "expected an integer >= 1 (run the detector on every N-th frame), got " + yamlu::describe(ev));
+  if (mc.interface_name != std::string("Detector"))
+    L.fail(kp + ".every", &ev, "'every' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+  return static_cast<int>(n);
+}
+
+/** One entry of `modules:` (key path `kp`), validated against its plug-in. */
+ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp) {
+  static const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every"};
+  if (!e.isMap()) L.fail(kp, &e, "expected a map {name, type, params, inputs}");
+  for (const auto& kv : e.asMap()) {
+    const std::string k = yamlu::scalarText(kv.first).value_or("");
+    bool ok = false;
+    for (const auto& v : mkeys) ok |= (v == k);
+    if (!ok) L.fail(kp + "." + k, &kv.first, "unknown key" + yamlu::didYouMean(k, mkeys) + " (valid: " + yamlu::join(mkeys) + ")");
+  }
+  ModuleConfig mc;
+  mc.where = L.loc(kp, &e);
+  auto req = [&](const char* k) {
+    const node_t* v = yamlu::findValue(e, k);
+    auto t = v ? yamlu::scalarText(*v) : std::nullopt;
+    if (!t || t->empty()) L.fail(kp + "." + k, v ? v : &e, std::string("missing required key '") + k + "'");
+    return *t;
+  };
+  mc.type = req("type");
+  mc.name = yamlu::findValue(e, "name") ? req("name") : mc.type;
+  if (const node_t* en = yamlu::findValue(e, "enabled")) {
+    auto b = yamlu::parseBool(yamlu::scalarText(*en).value_or(""));
+    if (!b) L.fail(kp + ".enabled", en, "expected bool (true/false), got " + yamlu::describe(*en));
+    mc.enabled = *b;
+  }
+  std::shared_ptr<Plugin> plugin;
+  try {
+    plugin = createPlugin(mc.type, CLASS_ID(Plugin));
+  } catch (const ConfigError& e2) {
+    L.fail(kp + ".type", yamlu::findValue(e, "type"), e2.what());
+  }
+  mc.interface_name = plugin->interfaceName();
+  if (mc.interface_name == std::string("DatasetSource"))
+    L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
+  mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
+  if (const node_t* ev = yamlu::findValue(e, "every")) mc.every = loadEvery(L, *ev, kp, mc);
+  if (const node_t* in = yamlu::findValue(e, "inputs")) {
+    if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
+    for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
+  }
+  return mc;
+}
+
+/** Every `inputs:` entry must name another module. */
+void checkModuleInputs(const std::vector<ModuleConfig>& modules) {
+  for (size_t a = 0; a < modules.size(); a++)
+    for (const auto& in : modules[a].inputs) {
+      bool found = false;
+      std::vector<std::string> names;
+      for (size_t b = 0; b < modules.size(); b++) {
+        names.push_back(modules[b].name);
+        found |= (b != a && modules[b].name == in);
+      }
+      if (!found)
+        throw ConfigError(modules[a].where.str() + ".inputs: unknown module '" + in + "'" +
+                          yamlu::didYouMean(in, names) + " (modules: " + yamlu::join(names) + ")");
+    }
+}
+
+std::vector<ModuleConfig> loadModules(const Loader& L, const node_t& root, const node_t& m) {
+  if (!m.isSequence() && !m.isNullNode())
+    L.fail("modules", yamlu::findKey(root, "modules"), "expected a list of {name, type, params, inputs}");
+  std::vector<ModuleConfig> modules;
+  size_t i = 0;
+  if (m.isSequence())
+    for (const auto& e : m.asSequence()) {
+      const std::string kp = "modules[" + std::to_string(i++) + "]";
+      ModuleConfig mc = loadModule(L, e, kp);
+      for (const auto& other : modules)
+        if (other.name == mc.name) L.fail(kp + ".name", yamlu::findValue(e, "name"), "duplicate module name '" + mc.name + "'");
+      modules.push_back(std::move(mc));
+    }
+  checkModuleInputs(modules);
+  return modules;
+}
+
+}  // namespace
+
+static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir) {
+  Loader L{ly, base_dir};
+  PipelineConfig pc;
+  pc.file = ly.file;
+  pc.dir = base_dir;
+  const node_t& root = ly.root->node();
+  if (!root.isMap()) L.fail("", &root, "a pipeline file must be a YAML map with sections (pipeline, dataset, camera, modules, outputs)");
+  checkSections(L, root);
 
   // plugin_dirs first: external plugins may provide the types used below.
   if (const node_t* pd = yamlu::findValue(root, "plugin_dirs")) {
@@ -138,107 +252,16 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
   pc.mode = pp.getString("mode") == "parallel" ? Mode::Parallel : Mode::Sequential;
   pc.seed = static_cast<uint64_t>(pp.getInt("seed"));
 
-  if (const node_t* d = yamlu::findValue(root, "dataset")) {
-    Params dp = L.section(datasetCommonParamSpecs(), d, "dataset");
-    DatasetConfig dc;
-    dc.type = dp.getString("type");
-    dc.on_bad_frame = dp.getString("on_bad_frame") == "skip" ? OnBadFrame::Skip : OnBadFrame::Fail;
-    dc.start = static_cast<int>(dp.getInt("start"));
-    dc.max_frames = static_cast<int>(dp.getInt("max_frames"));
-    dc.stride = static_cast<int>(dp.getInt("stride"));
-    std::shared_ptr<Plugin> reader;
-    try {
-      reader = createPlugin(dc.type, CLASS_ID(DatasetSource));
-    } catch (const ConfigError& e) {
-      L.fail("dataset.type", yamlu::findValue(*d, "type"), e.what());
-    }
-    dc.params = L.section(reader->paramSpecs(), yamlu::findValue(*d, "params"), "dataset.params");
-    pc.dataset = std::move(dc);
-  }
-
+  if (const node_t* d = yamlu::findValue(root, "dataset")) pc.dataset = loadDataset(L, *d);
   if (const node_t* c = yamlu::findValue(root, "camera")) {
     if (!c->isNullNode()) {
       Params cp = L.section(cameraParamSpecs(), c, "camera");
       pc.camera = cameraFromParams(cp);
     }
   }
-
   for (const auto& s : registeredSections())
     pc.sections[s.name] = L.section(s.specs(), yamlu::findValue(root, s.name), s.name);
-
-  if (const node_t* m = yamlu::findValue(root, "modules")) {
-    if (!m->isSequence() && !m->isNullNode())
-      L.fail("modules", yamlu::findKey(root, "modules"), "expected a list of {name, type, params, inputs}");
-    const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every"};
-    size_t i = 0;
-    if (m->isSequence())
-      for (const auto& e : m->asSequence()) {
-        const std::string kp = "modules[" + std::to_string(i++) + "]";
-        if (!e.isMap()) L.fail(kp, &e, "expected a map {name, type, params, inputs}");
-        for (const auto& kv : e.asMap()) {
-          const std::string k = yamlu::scalarText(kv.first).value_or("");
-          bool ok = false;
-          for (const auto& v : mkeys) ok |= (v == k);
-          if (!ok) L.fail(kp + "." + k, &kv.first, "unknown key" + yamlu::didYouMean(k, mkeys) + " (valid: " + yamlu::join(mkeys) + ")");
-        }
-        ModuleConfig mc;
-        mc.where = L.loc(kp, &e);
-        auto req = [&](const char* k) {
-          const node_t* v = yamlu::findValue(e, k);
-          auto t = v ? yamlu::scalarText(*v) : std::nullopt;
-          if (!t || t->empty()) L.fail(kp + "." + k, v ? v : &e, std::string("missing required key '") + k + "'");
-          return *t;
-        };
-        mc.type = req("type");
-        mc.name = yamlu::findValue(e, "name") ? req("name") : mc.type;
-        if (const node_t* en = yamlu::findValue(e, "enabled")) {
-          auto b = yamlu::parseBool(yamlu::scalarText(*en).value_or(""));
-          if (!b) L.fail(kp + ".enabled", en, "expected bool (true/false), got " + yamlu::describe(*en));
-          mc.enabled = *b;
-        }
-        std::shared_ptr<Plugin> plugin;
-        try {
-          plugin = createPlugin(mc.type, CLASS_ID(Plugin));
-        } catch (const ConfigError& e2) {
-          L.fail(kp + ".type", yamlu::findValue(e, "type"), e2.what());
-        }
-        mc.interface_name = plugin->interfaceName();
-        if (mc.interface_name == std::string("DatasetSource"))
-          L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
-        mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
-        if (const node_t* ev = yamlu::findValue(e, "every")) {
-          const auto t = yamlu::scalarText(*ev).value_or("");
-          char* end = nullptr;
-          const long n = std::strtol(t.c_str(), &end, 10);
-          if (t.empty() || *end != '\0' || n < 1 || n > 1000000)
-            L.fail(kp + ".every", ev, "expected an integer >= 1 (run the detector on every N-th frame), got " + yamlu::describe(*ev));
-          if (mc.interface_name != std::string("Detector"))
-            L.fail(kp + ".every", ev, "'every' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
-          mc.every = static_cast<int>(n);
-        }
-        if (const node_t* in = yamlu::findValue(e, "inputs")) {
-          if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
-          for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
-        }
-        for (const auto& other : pc.modules)
-          if (other.name == mc.name) L.fail(kp + ".name", yamlu::findValue(e, "name"), "duplicate module name '" + mc.name + "'");
-        pc.modules.push_back(std::move(mc));
-      }
-    // inputs must name earlier modules
-    for (size_t a = 0; a < pc.modules.size(); a++)
-      for (const auto& in : pc.modules[a].inputs) {
-        bool found = false;
-        std::vector<std::string> names;
-        for (size_t b = 0; b < pc.modules.size(); b++) {
-          names.push_back(pc.modules[b].name);
-          found |= (b != a && pc.modules[b].name == in);
-        }
-        if (!found)
-          throw ConfigError(pc.modules[a].where.str() + ".inputs: unknown module '" + in + "'" +
-                            yamlu::didYouMean(in, names) + " (modules: " + yamlu::join(names) + ")");
-      }
-  }
-
+  if (const node_t* m = yamlu::findValue(root, "modules")) pc.modules = loadModules(L, root, *m);
   pc.outputs = L.section(outputParamSpecs(), yamlu::findValue(root, "outputs"), "outputs");
   return pc;
 }

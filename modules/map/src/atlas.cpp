@@ -202,6 +202,164 @@ void Atlas::save(const std::string& path) const {
                                     << " points");
 }
 
+namespace {
+
+/** What the atlas file holds for the expected camera of the pipeline. */
+struct Expected {
+  const std::optional<CameraIntrinsics>& cam;
+  const std::shared_ptr<const ScaleLevels>& scale;
+};
+
+/** A keyframe as read, with the links resolved once all keyframes exist. */
+struct KeyFrameRecord {
+  KeyFramePtr kf;
+  int64_t parent = -1;
+  std::vector<int64_t> loops;
+};
+
+CameraIntrinsics readIntrinsics(Reader& r) {
+  CameraIntrinsics c;
+  float v[12];
+  for (float& x : v) x = r.get<float>();
+  c.fx = v[0], c.fy = v[1], c.cx = v[2], c.cy = v[3], c.invfx = v[4], c.invfy = v[5], c.bf = v[6], c.close_depth = v[7];
+  c.bounds = {v[8], v[9], v[10], v[11]};
+  if (!(c.fx > 0) || !c.bounds.valid()) r.fail("bad keyframe intrinsics");
+  return c;
+}
+
+/** Keypoints, depths, labels and descriptors of one keyframe into `f`. */
+void readKeypoints(Reader& r, int32_t n_levels, Frame& f) {
+  const uint64_t n = r.count(1'000'000, "keypoint");
+  f.keypoints_un.resize(n);
+  f.depth.resize(n);
+  f.u_right.resize(n);
+  f.meta.resize(n);
+  for (uint64_t i = 0; i < n; i++) {
+    float kv[5];
+    for (float& x : kv) x = r.get<float>();
+    const int32_t oct = r.get<int32_t>();
+    if (oct < 0 || oct >= n_levels) r.fail("keypoint octave out of range");
+    f.keypoints_un[i] = cv::KeyPoint(kv[0], kv[1], kv[2], kv[3], kv[4], oct);
+    f.depth[i] = r.get<float>();
+    f.u_right[i] = r.get<float>();
+    const uint8_t label = r.get<uint8_t>();
+    if (label > 2) r.fail("keypoint label out of range");
+    f.meta[i].label = static_cast<KpLabel>(label);
+    f.meta[i].reason = static_cast<KpReason>(r.get<uint8_t>());
+    f.meta[i].class_id = r.get<int16_t>();
+    f.meta[i].object_id = r.get<int32_t>();
+  }
+  f.keypoints = f.keypoints_un;
+  f.descriptors = cv::Mat(static_cast<int>(n), 32, CV_8U);
+  if (n) r.bytes(f.descriptors.data, n * 32);
+}
+
+KeyFrameRecord readKeyFrame(Reader& r, const std::string& path, const Expected& exp, Map* m) {
+  KeyFrameRecord rec;
+  const int64_t id = r.get<int64_t>();
+  Frame f;
+  f.input.index = r.get<int32_t>();
+  f.input.timestamp = r.get<double>();
+  const CameraIntrinsics c = readIntrinsics(r);
+  const int32_t n_levels = r.get<int32_t>();
+  const float factor = r.get<float>();
+  if (n_levels < 1 || n_levels > 32 || !(factor > 1.f)) r.fail("bad pyramid");
+  if (exp.scale && (n_levels != exp.scale->n_levels || std::abs(factor - exp.scale->scale_factor) > 1e-6f))
+    throw DataError(path + ": the atlas was built with " + std::to_string(n_levels) + " pyramid levels / factor " +
+                    std::to_string(factor) + "; the pipeline uses " + std::to_string(exp.scale->n_levels) + " / " +
+                    std::to_string(exp.scale->scale_factor));
+  if (exp.cam && (std::abs(exp.cam->fx - c.fx) > 1e-3f || std::abs(exp.cam->cx - c.cx) > 1e-3f))
+    throw DataError(path + ": the atlas was built with another camera (fx " + std::to_string(c.fx) + ", pipeline fx " +
+                    std::to_string(exp.cam->fx) + ")");
+  const SE3 T = getPose(r);
+  rec.parent = r.get<int64_t>();
+  const uint64_t n_loops = r.count(100000, "loop edge");
+  for (uint64_t l = 0; l < n_loops; l++) rec.loops.push_back(r.get<int64_t>());
+  const bool not_erase = r.get<uint8_t>() != 0;
+  readKeypoints(r, n_levels, f);
+  auto scale = (exp.scale && exp.scale->n_levels == n_levels)
+                   ? exp.scale
+                   : std::make_shared<const ScaleLevels>(ScaleLevels::make(n_levels, factor));
+  rec.kf = std::make_shared<KeyFrame>(id, f, T, c, scale, m);
+  rec.kf->not_erase = not_erase;
+  return rec;
+}
+
+MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& kfs) {
+  const int64_t id = r.get<int64_t>();
+  const int64_t first_kf = r.get<int64_t>();
+  Eigen::Vector3d X;
+  for (int a = 0; a < 3; a++) X[a] = r.get<double>();
+  if (!X.allFinite()) r.fail("non-finite point");
+  Descriptor d;
+  r.bytes(d.data(), 32);
+  const int64_t ref = r.get<int64_t>();
+  auto it_first = kfs.find(first_kf);
+  auto mp = std::make_shared<MapPoint>(id, X, it_first != kfs.end() ? it_first->second.get() : nullptr, m);
+  mp->desc = d;
+  mp->class_id = r.get<int16_t>();
+  mp->object_id = r.get<int32_t>();
+  const uint8_t label = r.get<uint8_t>();
+  if (label > 2) r.fail("point label out of range");
+  mp->label = static_cast<KpLabel>(label);
+  mp->active = r.get<uint8_t>() != 0;
+  const uint64_t n_obs = r.count(1'000'000, "observation");
+  for (uint64_t o = 0; o < n_obs; o++) {
+    const int64_t kid = r.get<int64_t>();
+    const int32_t idx = r.get<int32_t>();
+    auto it = kfs.find(kid);
+    if (it == kfs.end()) r.fail("observation of an unknown keyframe");
+    if (idx < 0 || static_cast<size_t>(idx) >= it->second->size()) r.fail("observation index out of range");
+    mp->addObservation(it->second.get(), idx);
+    it->second->points[idx] = mp;
+  }
+  if (auto it = kfs.find(ref); it != kfs.end()) mp->ref_kf = it->second.get();
+  mp->updateNormalAndDepth();
+  return mp;
+}
+
+/** One map: keyframes (origin first), points, then covisibility, spanning
+ *  tree and loop edges. Raises max_kf / max_pt to the largest ids read. */
+std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected& exp, int64_t& max_kf,
+                             int64_t& max_pt) {
+  auto m = std::make_shared<Map>(r.get<int64_t>());
+  const int64_t origin_id = r.get<int64_t>();
+  const uint64_t n_kf = r.count(10'000'000, "keyframe");
+  std::map<int64_t, KeyFramePtr> kfs;
+  std::vector<KeyFrameRecord> in_order;
+  for (uint64_t k = 0; k < n_kf; k++) {
+    KeyFrameRecord rec = readKeyFrame(r, path, exp, m.get());
+    const int64_t id = rec.kf->id;
+    if (kfs.count(id)) r.fail("duplicate keyframe id");
+    kfs[id] = rec.kf;
+    in_order.push_back(std::move(rec));
+    max_kf = std::max(max_kf, id);
+  }
+  // The origin first: Map::addKeyFrame takes the first keyframe as origin.
+  if (origin_id >= 0) {
+    if (!kfs.count(origin_id)) r.fail("origin keyframe missing");
+    m->addKeyFrame(kfs[origin_id]);
+  }
+  for (auto& rec : in_order)
+    if (rec.kf->id != origin_id) m->addKeyFrame(rec.kf);
+  const uint64_t n_pt = r.count(100'000'000, "point");
+  for (uint64_t k = 0; k < n_pt; k++) {
+    MapPointPtr mp = readPoint(r, m.get(), kfs);
+    max_pt = std::max(max_pt, mp->id);
+    m->addPoint(mp);
+  }
+  for (auto& rec : in_order) rec.kf->updateConnections();
+  for (auto& rec : in_order) {
+    auto pit = kfs.find(rec.parent);
+    rec.kf->changeParent(pit != kfs.end() ? pit->second.get() : nullptr);
+    for (int64_t l : rec.loops)
+      if (auto lit = kfs.find(l); lit != kfs.end()) rec.kf->loop_edges[l] = lit->second.get();
+  }
+  return m;
+}
+
+}  // namespace
+
 void Atlas::load(const std::string& path) {
   Reader r(path);
   char magic[8];
@@ -215,125 +373,12 @@ void Atlas::load(const std::string& path) {
   if (r.get<uint32_t>() != kEndian) throw DataError(path + ": atlas file written on a machine with another byte order");
   const uint64_t n_maps = r.count(1 << 16, "map");
   const int64_t current_id = r.get<int64_t>();
+  const Expected exp{exp_cam_, exp_scale_};
   std::vector<std::shared_ptr<Map>> maps;
   int64_t max_kf = -1, max_pt = -1, max_map = -1;
   for (uint64_t mi = 0; mi < n_maps; mi++) {
-    auto m = std::make_shared<Map>(r.get<int64_t>());
-    max_map = std::max(max_map, m->id);
-    const int64_t origin_id = r.get<int64_t>();
-    const uint64_t n_kf = r.count(10'000'000, "keyframe");
-    std::map<int64_t, KeyFramePtr> kfs;
-    std::map<int64_t, int64_t> parents;
-    std::map<int64_t, std::vector<int64_t>> loops;
-    std::vector<std::pair<int64_t, KeyFramePtr>> in_order;
-    for (uint64_t k = 0; k < n_kf; k++) {
-      const int64_t id = r.get<int64_t>();
-      Frame f;
-      f.input.index = r.get<int32_t>();
-      f.input.timestamp = r.get<double>();
-      CameraIntrinsics c;
-      float v[12];
-      for (float& x : v) x = r.get<float>();
-      c.fx = v[0], c.fy = v[1], c.cx = v[2], c.cy = v[3], c.invfx = v[4], c.invfy = v[5], c.bf = v[6],
-      c.close_depth = v[7];
-      c.bounds = {v[8], v[9], v[10], v[11]};
-      if (!(c.fx > 0) || !c.bounds.valid()) r.fail("bad keyframe intrinsics");
-      const int32_t n_levels = r.get<int32_t>();
-      const float factor = r.get<float>();
-      if (n_levels < 1 || n_levels > 32 || !(factor > 1.f)) r.fail("bad pyramid");
-      if (exp_scale_ && (n_levels != exp_scale_->n_levels || std::abs(factor - exp_scale_->scale_factor) > 1e-6f))
-        throw DataError(path + ": the atlas was built with " + std::to_string(n_levels) + " pyramid levels / factor " +
-                        std::to_string(factor) + "; the pipeline uses " + std::to_string(exp_scale_->n_levels) + " / " +
-                        std::to_string(exp_scale_->scale_factor));
-      if (exp_cam_ && (std::abs(exp_cam_->fx - c.fx) > 1e-3f || std::abs(exp_cam_->cx - c.cx) > 1e-3f))
-        throw DataError(path + ": the atlas was built with another camera (fx " + std::to_string(c.fx) + ", pipeline fx " +
-                        std::to_string(exp_cam_->fx) + ")");
-      const SE3 T = getPose(r);
-      parents[id] = r.get<int64_t>();
-      const uint64_t n_loops = r.count(100000, "loop edge");
-      for (uint64_t l = 0; l < n_loops; l++) loops[id].push_back(r.get<int64_t>());
-      const bool not_erase = r.get<uint8_t>() != 0;
-      const uint64_t n = r.count(1'000'000, "keypoint");
-      f.keypoints_un.resize(n);
-      f.depth.resize(n);
-      f.u_right.resize(n);
-      f.meta.resize(n);
-      for (uint64_t i = 0; i < n; i++) {
-        float kv[5];
-        for (float& x : kv) x = r.get<float>();
-        const int32_t oct = r.get<int32_t>();
-        if (oct < 0 || oct >= n_levels) r.fail("keypoint octave out of range");
-        f.keypoints_un[i] = cv::KeyPoint(kv[0], kv[1], kv[2], kv[3], kv[4], oct);
-        f.depth[i] = r.get<float>();
-        f.u_right[i] = r.get<float>();
-        const uint8_t label = r.get<uint8_t>();
-        if (label > 2) r.fail("keypoint label out of range");
-        f.meta[i].label = static_cast<KpLabel>(label);
-        f.meta[i].reason = static_cast<KpReason>(r.get<uint8_t>());
-        f.meta[i].class_id = r.get<int16_t>();
-        f.meta[i].object_id = r.get<int32_t>();
-      }
-      f.keypoints = f.keypoints_un;
-      f.descriptors = cv::Mat(static_cast<int>(n), 32, CV_8U);
-      if (n) r.bytes(f.descriptors.data, n * 32);
-      auto scale = (exp_scale_ && exp_scale_->n_levels == n_levels) ? exp_scale_
-                                                                      : std::make_shared<const ScaleLevels>(ScaleLevels::make(n_levels, factor));
-      auto kf = std::make_shared<KeyFrame>(id, f, T, c, scale, m.get());
-      kf->not_erase = not_erase;
-      if (kfs.count(id)) r.fail("duplicate keyframe id");
-      kfs[id] = kf;
-      in_order.emplace_back(id, kf);
-      max_kf = std::max(max_kf, id);
-    }
-    // The origin first: Map::addKeyFrame takes the first keyframe as origin.
-    if (origin_id >= 0) {
-      if (!kfs.count(origin_id)) r.fail("origin keyframe missing");
-      m->addKeyFrame(kfs[origin_id]);
-    }
-    for (auto& [id, kf] : in_order)
-      if (id != origin_id) m->addKeyFrame(kf);
-    const uint64_t n_pt = r.count(100'000'000, "point");
-    for (uint64_t k = 0; k < n_pt; k++) {
-      const int64_t id = r.get<int64_t>();
-      const int64_t first_kf = r.get<int64_t>();
-      Eigen::Vector3d X;
-      for (int a = 0; a < 3; a++) X[a] = r.get<double>();
-      if (!X.allFinite()) r.fail("non-finite point");
-      Descriptor d;
-      r.bytes(d.data(), 32);
-      const int64_t ref = r.get<int64_t>();
-      auto it_first = kfs.find(first_kf);
-      auto mp = std::make_shared<MapPoint>(id, X, it_first != kfs.end() ? it_first->second.get() : nullptr, m.get());
-      mp->desc = d;
-      mp->class_id = r.get<int16_t>();
-      mp->object_id = r.get<int32_t>();
-      const uint8_t label = r.get<uint8_t>();
-      if (label > 2) r.fail("point label out of range");
-      mp->label = static_cast<KpLabel>(label);
-      mp->active = r.get<uint8_t>() != 0;
-      const uint64_t n_obs = r.count(1'000'000, "observation");
-      for (uint64_t o = 0; o < n_obs; o++) {
-        const int64_t kid = r.get<int64_t>();
-        const int32_t idx = r.get<int32_t>();
-        auto it = kfs.find(kid);
-        if (it == kfs.end()) r.fail("observation of an unknown keyframe");
-        if (idx < 0 || static_cast<size_t>(idx) >= it->second->size()) r.fail("observation index out of range");
-        mp->addObservation(it->second.get(), idx);
-        it->second->points[idx] = mp;
-      }
-      if (auto it = kfs.find(ref); it != kfs.end()) mp->ref_kf = it->second.get();
-      mp->updateNormalAndDepth();
-      m->addPoint(mp);
-      max_pt = std::max(max_pt, id);
-    }
-    for (auto& [id, kf] : in_order) kf->updateConnections();
-    for (auto& [id, kf] : in_order) {
-      auto pit = kfs.find(parents[id]);
-      kf->changeParent(pit != kfs.end() ? pit->second.get() : nullptr);
-      for (int64_t l : loops[id])
-        if (auto lit = kfs.find(l); lit != kfs.end()) kf->loop_edges[l] = lit->second.get();
-    }
-    maps.push_back(m);
+    maps.push_back(readMap(r, path, exp, max_kf, max_pt));
+    max_map = std::max(max_map, maps.back()->id);
   }
   char end[8];
   r.bytes(end, 8);
