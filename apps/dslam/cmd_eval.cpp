@@ -75,6 +75,23 @@ void header(const Common& o) {
   std::cout << "ground truth: " << o.gt << "\nestimate:     " << o.est << "\n";
 }
 
+/** Prints an ATE or RPE result (JSON or text), then writes the aligned
+ *  estimate and the plot when asked; `plot` draws and returns the CSV path. */
+template <class Result, class PlotFn>
+void report(const Common& o, const Result& r, PlotFn plot) {
+  if (o.json) {
+    std::cout << eval::toJson(r) << std::endl;
+  } else {
+    header(o);
+    std::cout << eval::toText(r) << std::flush;
+  }
+  if (!o.save_aligned.empty()) saveAligned(o, r.aligned, r.alignment);
+  if (!o.plot.empty()) {
+    const std::string csv = plot();
+    DSLAM_LOG(Info, "plot written to " << o.plot << " (data: " << csv << ")");
+  }
+}
+
 void runAte(const Common& o) {
   const Trajectory gt = load(o.gt, o.gt_format, o.gt_times, "ground-truth");
   const Trajectory est = load(o.est, o.est_format, o.est_times, "estimate");
@@ -84,18 +101,10 @@ void runAte(const Common& o) {
   opt.gt_name = o.gt;
   opt.est_name = o.est;
   const auto r = eval::computeAte(gt, est, opt);
-  if (o.json) {
-    std::cout << eval::toJson(r) << std::endl;
-  } else {
-    header(o);
-    std::cout << eval::toText(r) << std::flush;
-  }
-  if (!o.save_aligned.empty()) saveAligned(o, r.aligned, r.alignment);
-  if (!o.plot.empty()) {
-    const std::string csv = eval::plot(o.plot, eval::plotRows(gt, r),
-                                       "ATE " + std::filesystem::path(o.est).filename().string(), "ATE [m]");
-    DSLAM_LOG(Info, "plot written to " << o.plot << " (data: " << csv << ")");
-  }
+  report(o, r, [&] {
+    return eval::plot(o.plot, eval::plotRows(gt, r), "ATE " + std::filesystem::path(o.est).filename().string(),
+                      "ATE [m]");
+  });
 }
 
 void runRpe(const Common& o, double delta, const std::string& unit) {
@@ -109,19 +118,10 @@ void runRpe(const Common& o, double delta, const std::string& unit) {
   opt.gt_name = o.gt;
   opt.est_name = o.est;
   const auto r = eval::computeRpe(gt, est, opt);
-  if (o.json) {
-    std::cout << eval::toJson(r) << std::endl;
-  } else {
-    header(o);
-    std::cout << eval::toText(r) << std::flush;
-  }
-  if (!o.save_aligned.empty()) saveAligned(o, r.aligned, r.alignment);
-  if (!o.plot.empty()) {
-    const std::string csv = eval::plot(o.plot, eval::plotRows(gt, est, r),
-                                       "RPE " + std::filesystem::path(o.est).filename().string(),
-                                       "RPE trans. [m] (delta " + (std::ostringstream() << delta).str() + " " + unit + ")");
-    DSLAM_LOG(Info, "plot written to " << o.plot << " (data: " << csv << ")");
-  }
+  report(o, r, [&] {
+    return eval::plot(o.plot, eval::plotRows(gt, est, r), "RPE " + std::filesystem::path(o.est).filename().string(),
+                      "RPE trans. [m] (delta " + (std::ostringstream() << delta).str() + " " + unit + ")");
+  });
 }
 
 void setup(CLI::App& sub) {
