@@ -1,6 +1,8 @@
 #include "dslam/trajectory/io.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +10,7 @@
 #include <vector>
 
 #include "dslam/core/error.h"
+#include "dslam/core/log.h"
 #include "dslam/core/yaml_util.h"
 
 namespace dslam::traj {
@@ -37,7 +40,8 @@ struct Line {
   std::vector<std::string> fields;
 };
 
-/** Splits data lines on whitespace and/or commas; skips blanks and '#' comments. */
+/** Splits data lines on whitespace and/or commas; '#' starts a comment
+ *  anywhere; blank and comment-only lines are skipped. */
 std::vector<Line> readLines(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw DataError("cannot open trajectory file: " + path);
@@ -46,13 +50,13 @@ std::vector<Line> readLines(const std::string& path) {
   int n = 0;
   while (std::getline(f, s)) {
     n++;
+    if (const size_t hash = s.find('#'); hash != std::string::npos) s.erase(hash);
     if (!s.empty() && s.back() == '\r') s.pop_back();
-    size_t p = s.find_first_not_of(" \t");
-    if (p == std::string::npos || s[p] == '#') continue;
+    if (s.find_first_not_of(" \t\r") == std::string::npos) continue;
     Line l{n, {}};
     std::string tok;
     for (char c : s) {
-      if (c == ' ' || c == '\t' || c == ',') {
+      if (c == ' ' || c == '\t' || c == ',' || c == '\r') {
         if (!tok.empty()) l.fields.push_back(tok);
         tok.clear();
       } else {
@@ -78,14 +82,6 @@ void need(const std::string& path, const Line& l, size_t n, const char* fmt) {
                     "), got " + std::to_string(l.fields.size()));
 }
 
-void checkIncreasing(const std::string& path, const Line& l, const Trajectory& t, double stamp) {
-  if (!t.empty() && !(stamp > t.stamps.back())) {
-    char buf[128];
-    std::snprintf(buf, sizeof(buf), "%.9f after %.9f", stamp, t.stamps.back());
-    throw DataError(path + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + buf + ")");
-  }
-}
-
 SE3 fromQuat(double qw, double qx, double qy, double qz, const Eigen::Vector3d& t, const std::string& path, const Line& l) {
   Eigen::Quaterniond q(qw, qx, qy, qz);
   if (q.norm() < 1e-6) throw DataError(path + ":" + std::to_string(l.lineno) + ": zero quaternion");
@@ -106,32 +102,65 @@ SE3 from3x4(const std::string& path, const Line& l, size_t off) {
 
 }  // namespace
 
+TimestampFix normalizeTimestamps(Trajectory& t, const std::string& what) {
+  TimestampFix fix;
+  const size_t n = t.size();
+  double latest = -std::numeric_limits<double>::infinity();
+  bool sorted = true;
+  for (size_t i = 0; i < n; i++) {
+    if (i > 0 && !(t.stamps[i] > t.stamps[i - 1])) sorted = false;
+    if (t.stamps[i] < latest) fix.reordered++;
+    latest = std::max(latest, t.stamps[i]);
+  }
+  if (sorted) return fix;
+  std::vector<size_t> idx(n);
+  for (size_t i = 0; i < n; i++) idx[i] = i;
+  std::stable_sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return t.stamps[a] < t.stamps[b]; });
+  Trajectory out;
+  for (size_t k = 0; k < n; k++) {
+    // of equal times, the last in file order (the stable sort keeps it last)
+    if (k + 1 < n && t.stamps[idx[k + 1]] == t.stamps[idx[k]]) {
+      fix.repeated++;
+      continue;
+    }
+    out.push_back(t.stamps[idx[k]], t.poses[idx[k]]);
+  }
+  t = std::move(out);
+  if (!what.empty() && (fix.repeated || fix.reordered))
+    DSLAM_LOG(Warn, what << ": " << fix.repeated << " repeated timestamp(s) (the last pose of each kept) and "
+                         << fix.reordered << " out-of-order line(s) (sorted by time), as the TUM benchmark tools do");
+  return fix;
+}
+
 Format detectFormat(const std::string& path) {
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".csv") return Format::Euroc;
   auto lines = readLines(path);
   if (lines.empty()) throw DataError("trajectory file has no data lines: " + path);
-  const size_t n = lines.front().fields.size();
-  if (n == 8) return Format::Tum;
+  const auto& first = lines.front();
+  const size_t n = first.fields.size();
   if (n == 12 || n == 13) return Format::Kitti;
-  if (n >= 8) return Format::Euroc;
+  if (n >= 8) {
+    const auto t0 = yamlu::parseDouble(first.fields[0]);
+    return t0 && *t0 > 1e14 ? Format::Euroc : Format::Tum;
+  }
   throw DataError(path + ":" + std::to_string(lines.front().lineno) + ": cannot tell the trajectory format from " +
                   std::to_string(n) + " columns (TUM: 8, KITTI: 12 or 13, EuRoC: >= 8 comma separated)");
 }
 
-Trajectory readTum(const std::string& path, bool inc) {
+Trajectory readTum(const std::string& path, bool normalize) {
   Trajectory t;
   for (const auto& l : readLines(path)) {
     need(path, l, 8, "timestamp tx ty tz qx qy qz qw");
     const double stamp = num(path, l, 0);
-    if (inc) checkIncreasing(path, l, t, stamp);
     t.push_back(stamp, fromQuat(num(path, l, 7), num(path, l, 4), num(path, l, 5), num(path, l, 6),
                                 {num(path, l, 1), num(path, l, 2), num(path, l, 3)}, path, l));
   }
+  if (normalize) normalizeTimestamps(t, path);
   return t;
 }
 
-Trajectory readKitti(const std::string& path, const std::string& times_path, double rate, bool inc) {
+Trajectory readKitti(const std::string& path, const std::string& times_path, double rate, bool normalize) {
   std::vector<double> times;
   if (!times_path.empty()) {
     for (const auto& l : readLines(times_path)) times.push_back(num(times_path, l, 0));
@@ -155,25 +184,25 @@ Trajectory readKitti(const std::string& path, const std::string& times_path, dou
     } else {
       stamp = static_cast<double>(i) / rate;
     }
-    if (inc) checkIncreasing(path, l, t, stamp);
     t.push_back(stamp, from3x4(path, l, off));
     i++;
   }
   if (used_times && i != times.size())
     throw DataError(times_path + ": has " + std::to_string(times.size()) + " times but " + path + " has " +
                     std::to_string(i) + " poses");
+  if (normalize) normalizeTimestamps(t, path);
   return t;
 }
 
-Trajectory readEuroc(const std::string& path, bool inc) {
+Trajectory readEuroc(const std::string& path, bool normalize) {
   Trajectory t;
   for (const auto& l : readLines(path)) {
     need(path, l, 8, "timestamp[ns], px, py, pz, qw, qx, qy, qz");
     const double stamp = num(path, l, 0) * 1e-9;
-    if (inc) checkIncreasing(path, l, t, stamp);
     t.push_back(stamp, fromQuat(num(path, l, 4), num(path, l, 5), num(path, l, 6), num(path, l, 7),
                                 {num(path, l, 1), num(path, l, 2), num(path, l, 3)}, path, l));
   }
+  if (normalize) normalizeTimestamps(t, path);
   return t;
 }
 
@@ -183,9 +212,9 @@ Trajectory read(const std::string& path, const ReadOptions& opt) {
   Format f = opt.format == Format::Auto ? detectFormat(path) : opt.format;
   Trajectory t;
   switch (f) {
-    case Format::Tum: t = readTum(path, opt.require_increasing); break;
-    case Format::Kitti: t = readKitti(path, opt.kitti_times, opt.kitti_rate, opt.require_increasing); break;
-    case Format::Euroc: t = readEuroc(path, opt.require_increasing); break;
+    case Format::Tum: t = readTum(path, opt.normalize_timestamps); break;
+    case Format::Kitti: t = readKitti(path, opt.kitti_times, opt.kitti_rate, opt.normalize_timestamps); break;
+    case Format::Euroc: t = readEuroc(path, opt.normalize_timestamps); break;
     case Format::Auto: break;
   }
   if (t.empty()) throw DataError("trajectory file has no poses: " + path);
