@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 
+#include "dslam/config/pipeline.h"
 #include "dslam/config/yaml_loader.h"
 #include "dslam/core/error.h"
 #include "dslam/core/paths.h"
@@ -82,4 +83,47 @@ TEST(YamlLoader, NoShellExecution) {
   const auto ly = config::loadYamlFile(d + "/a.yaml");
   EXPECT_FALSE(fileExists(marker));
   EXPECT_EQ((*ly.root)["x"].as<std::string>(), "$(touch " + marker + ")");
+}
+
+TEST(YamlLoader, SyntaxErrorsNameFileLineAndColumn) {
+  // libfyaml prints an unclosed flow sequence to stderr and returns a partial
+  // document: the loader must still report it as a syntax error.
+  const std::string d = test::tempDir("yaml");
+  test::writeFile(d + "/open.yaml", "pipeline:\n  name: x\n  a: [\n");
+  try {
+    config::loadYamlFile(d + "/open.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(d + "/open.yaml:4:1: YAML syntax error: flow sequence without a closing bracket"),
+              std::string::npos) << m;
+  }
+  test::writeFile(d + "/map.yaml", "a: {b: 1\nc: 2\n");
+  try {
+    config::loadYamlFile(d + "/map.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(d + "/map.yaml:"), std::string::npos) << m;
+    EXPECT_NE(m.find("YAML syntax error"), std::string::npos) << m;
+  }
+}
+
+TEST(YamlLoader, ErrorsQuoteAShortExcerptNotTheWholeValue) {
+  // `camera: $include{/etc/passwd}` used to print the included file.
+  const std::string d = test::tempDir("yaml");
+  std::string big;
+  for (int i = 0; i < 200; i++) big += "secret line " + std::to_string(i) + " with some text\n";
+  test::writeFile(d + "/not_yaml.txt", big);
+  test::writeFile(d + "/p.yaml", "pipeline:\n  name: x\ncamera: $include{not_yaml.txt}\n");
+  try {
+    config::loadPipeline(d + "/p.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_LT(m.size(), 400u) << m;
+    EXPECT_EQ(m.find("secret line 5 "), std::string::npos) << m;
+    EXPECT_NE(m.find("characters)"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
 }

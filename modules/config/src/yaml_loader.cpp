@@ -2,7 +2,12 @@
 
 #include <mrpt/containers/yaml.h>
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <cstdlib>
+#include <iostream>
+#include <mutex>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -83,24 +88,74 @@ namespace {
 
 const std::regex kInclude(R"(^\$include\{([^}]+)\}$)");
 
-yaml parseText(const std::string& text, const std::string& file) {
-  try {
-    return yaml::FromText(text);
-  } catch (const std::exception& e) {
-    // MRPT's message carries "<memory>:line:col: error" plus a backtrace; keep the first useful line.
-    std::string msg = e.what();
-    std::string first;
-    std::istringstream ss(msg);
-    std::string l;
-    while (std::getline(ss, l)) {
-      if (l.find("error") != std::string::npos || l.find("Message") != std::string::npos) {
-        first = l;
-        break;
-      }
-    }
-    if (first.empty()) first = msg.substr(0, msg.find('\n'));
-    throw ConfigError(file + ": YAML syntax error: " + first);
+/** Runs `fn` with stderr (fd 2) captured; returns what was written there.
+ *  MRPT's YAML parser (libfyaml) prints some syntax errors, e.g. an unclosed
+ *  flow sequence, to stderr and returns a partial document instead of
+ *  throwing: capturing them is the only way to report them. */
+template <class Fn>
+std::string captureStderr(Fn&& fn) {
+  static std::mutex m;
+  std::lock_guard<std::mutex> lk(m);
+  std::fflush(stderr);
+  FILE* tmp = std::tmpfile();
+  const int saved = tmp ? ::dup(2) : -1;
+  if (!tmp || saved < 0 || ::dup2(::fileno(tmp), 2) < 0) {  // cannot capture: run as is
+    if (tmp) std::fclose(tmp);
+    if (saved >= 0) ::close(saved);
+    fn();
+    return {};
   }
+  struct Restore {
+    int saved;
+    FILE* tmp;
+    ~Restore() {
+      std::fflush(stderr);
+      ::dup2(saved, 2);
+      ::close(saved);
+    }
+  };
+  std::string out;
+  {
+    Restore r{saved, tmp};
+    fn();
+  }
+  std::rewind(tmp);
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof(buf), tmp)) > 0 && out.size() < 65536) out.append(buf, n);
+  std::fclose(tmp);
+  return out;
+}
+
+/** "file:line:col: YAML syntax error: what" from libfyaml's
+ *  "<memory-@0x...>:line:col: error: what". */
+std::string syntaxError(const std::string& diag, const std::string& file) {
+  static const std::regex re(R"(:(\d+):(\d+): error: ([^\n]*))");
+  std::smatch m;
+  if (std::regex_search(diag, m, re))
+    return file + ":" + m[1].str() + ":" + m[2].str() + ": YAML syntax error: " + m[3].str();
+  std::string first = diag.substr(0, diag.find('\n'));
+  return file + ": YAML syntax error: " + first.substr(0, 200);
+}
+
+yaml parseText(const std::string& text, const std::string& file) {
+  yaml y;
+  std::string exception_msg;
+  const std::string diag = captureStderr([&] {
+    try {
+      y = yaml::FromText(text);
+    } catch (const std::exception& e) {
+      exception_msg = e.what();
+    }
+  });
+  if (diag.find("error") != std::string::npos) throw ConfigError(syntaxError(diag, file));
+  if (!exception_msg.empty()) {
+    // MRPT's message carries "<memory>:line:col: error" plus a backtrace.
+    if (exception_msg.find(": error: ") != std::string::npos) throw ConfigError(syntaxError(exception_msg, file));
+    throw ConfigError(file + ": YAML syntax error: " + exception_msg.substr(0, exception_msg.find('\n')));
+  }
+  if (!diag.empty()) std::cerr << diag;  // warnings: pass them on
+  return y;
 }
 
 struct Resolver {

@@ -44,9 +44,14 @@ std::string describe(const node_t& n) {
   if (n.isNullNode()) return "null";
   if (n.isMap()) return "a map";
   if (n.isSequence()) return "a list";
-  std::string s("'");
-  s.append(n.internalAsStr()).append("'");
-  return s;
+  // Quote, do not dump: a short excerpt on one line (the value may be a
+  // whole file that an $include{} pulled in).
+  std::string v(n.internalAsStr());
+  for (char& c : v)
+    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+  constexpr size_t kMax = 60;
+  if (v.size() > kMax) v = v.substr(0, kMax) + "... (" + std::to_string(v.size()) + " characters)";
+  return "'" + v + "'";
 }
 
 const node_t* findKey(const node_t& m, const std::string& key) {
