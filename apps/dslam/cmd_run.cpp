@@ -20,7 +20,8 @@ void setup(CLI::App& sub) {
   sub.add_flag("--no-progress", ov.quiet_progress, "no progress line");
   sub.callback([] {
     const auto pc = dslam::config::loadPipeline(file);
-    dslam::runPipeline(pc, ov);
+    const dslam::RunSummary sum = dslam::runPipeline(pc, ov);
+    if (sum.stop_signal) dslam::app::exitCode() = 128 + sum.stop_signal;  // as the shell reports a signal
   });
 }
 

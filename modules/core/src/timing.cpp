@@ -1,5 +1,7 @@
 #include "dslam/core/timing.h"
 
+#include "dslam/core/atomic_file.h"
+
 #include <mrpt/system/CTimeLogger.h>
 
 #include <algorithm>
@@ -68,8 +70,8 @@ std::vector<std::string> StageTimer::stages() const {
 
 void StageTimer::writeCsv(const std::string& path) const {
   std::lock_guard<std::mutex> lk(impl_->mtx);
-  std::ofstream f(path);
-  if (!f) throw DataError("cannot write timing CSV: " + path);
+  AtomicOfstream out(path);
+  std::ofstream& f = out.stream();
   // frame -> stage -> summed ms (a stage may run several times per frame)
   std::map<int, std::map<std::string, double>> rows;
   for (auto& [stage, v] : impl_->samples)
@@ -89,6 +91,7 @@ void StageTimer::writeCsv(const std::string& path) const {
     }
     f << "\n";
   }
+  out.commit();
 }
 
 void StageTimer::writeMrptCsv(const std::string& path) const {

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <set>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 
@@ -64,23 +65,19 @@ constexpr uint32_t kEndian = 0x01020304u;
 
 class Writer {
  public:
-  explicit Writer(const std::string& path) : f_(path, std::ios::binary), path_(path) {
-    if (!f_) throw DataError("cannot write atlas file: " + path);
-  }
+  explicit Writer(const std::string& path) : out_(path, std::ios::binary), f_(out_.stream()) {}
   template <class T>
   void put(const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     f_.write(reinterpret_cast<const char*>(&v), sizeof(T));
   }
   void bytes(const void* p, size_t n) { f_.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
-  void finish() {
-    f_.flush();
-    if (!f_) throw DataError("error writing atlas file: " + path_);
-  }
+  /** The file appears under its name only now (temporary file + rename). */
+  void finish() { out_.commit(); }
 
  private:
-  std::ofstream f_;
-  std::string path_;
+  AtomicOfstream out_;
+  std::ofstream& f_;
 };
 
 class Reader {

@@ -4,12 +4,15 @@
 #include <mrpt/containers/yaml.h>
 #include <nlohmann/json.hpp>
 
+#include <atomic>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <future>
 #include <iostream>
 #include <sstream>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
@@ -26,6 +29,66 @@ using json = nlohmann::ordered_json;
 namespace dslam {
 
 namespace {
+
+/** SIGINT / SIGTERM during a run: the frame loop stops at the next frame and
+ *  every output is written for what was processed. The handler is one-shot
+ *  (SA_RESETHAND): a second Ctrl-C ends the process at once. */
+std::atomic<int> g_stop_signal{0};
+
+extern "C" void onStopSignal(int sig) { g_stop_signal = sig; }
+
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = onStopSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
+
+/** trajectory.txt while the run goes on: each tracked frame's pose as
+ *  tracking estimated it, flushed per frame, so that a killed run leaves a
+ *  trajectory `dslam eval` reads. At the end the final, keyframe-corrected
+ *  trajectory replaces it (temporary file + rename). */
+class IncrementalTrajectory {
+ public:
+  void open(const std::string& path, const std::string& pipeline) {
+    if (path.empty()) return;
+    f_.open(path);
+    if (!f_) throw DataError("cannot write trajectory file: " + path);
+    f_ << "# dslam camera trajectory (T_wc), pipeline " << pipeline << "\n"
+       << "# RUN NOT FINISHED: poses as tracked, written while the run goes on; a finished run replaces this file\n"
+       << "# timestamp tx ty tz qx qy qz qw\n"
+       << std::flush;
+  }
+  void add(double t, const SE3& T_cw) {
+    if (!f_.is_open()) return;
+    const SE3 T = T_cw.inverse();
+    const auto& q = T.quaternion();
+    const auto& p = T.translation();
+    char buf[256];
+    std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", t, p.x(), p.y(), p.z(), q.x(), q.y(),
+                  q.z(), q.w());
+    f_ << buf << std::flush;
+  }
+  void close() { f_.close(); }
+
+ private:
+  std::ofstream f_;
+};
 
 /** events.jsonl: one JSON object per line, flushed at once. */
 struct EventLog {
@@ -102,8 +165,9 @@ std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverride
     config::PipelineConfig resolved = pc;
     resolved.dataset = dc;
     resolved.camera = cam;
-    std::ofstream f(rc);
+    AtomicOfstream f(rc);
     f << resolved.toYaml();
+    f.commit();
   }
   return out;
 }
@@ -143,6 +207,7 @@ std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const R
 struct LoopOutcome {
   std::vector<double> frame_ms;
   std::exception_ptr failure;
+  int stop_signal = 0;  ///< SIGINT/SIGTERM that stopped the loop, 0 if none
 };
 
 /** Tracks frames [start, start + n*stride) of `reader`; the next frame is read
@@ -150,7 +215,7 @@ struct LoopOutcome {
  *  (reading is deterministic, so sequential runs stay repeatable). */
 LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetConfig& dc, size_t start,
                       size_t stride, size_t n, const RunOverrides& ov, EventLog& ev, std::ofstream& frames_csv,
-                      RunSummary& sum) {
+                      IncrementalTrajectory& traj_out, RunSummary& sum) {
   LoopOutcome lo;
   log::Progress progress("tracking", n, 100);
   TrackState prev_state = TrackState::NotInitialized;
@@ -162,6 +227,12 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
     std::future<SensorFrame> next;
     if (n > 0) next = readAsync(0);
     for (size_t k = 0; k < n; k++) {
+      if (const int sig = g_stop_signal.load()) {
+        lo.stop_signal = sig;
+        DSLAM_LOG(Warn, "interrupted (" << (sig == SIGINT ? "SIGINT" : "SIGTERM") << ") after " << done
+                                        << " frames: writing the outputs (Ctrl-C again to abort)");
+        break;
+      }
       const size_t i = start + k * stride;
       SensorFrame sf;
       std::exception_ptr read_error;
@@ -183,6 +254,7 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
       lo.frame_ms.push_back(r.ms_total);
       sum.frames++;
       if (r.track.state == TrackState::Ok) sum.tracked++;
+      if (r.track.state == TrackState::Ok && r.track.T_cw) traj_out.add(r.timestamp, *r.track.T_cw);
       if (r.track.initialized) ev.write(json{{"event", "map_initialised"}, {"frame", i}, {"map", sys.map()->id}});
       if (r.track.relocalized) ev.frameEvent("relocalised", i);
       if (r.track.state == TrackState::Lost && prev_state == TrackState::Ok) ev.frameEvent("lost", i);
@@ -191,7 +263,7 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
         std::snprintf(line, sizeof(line), "%d,%.6f,%s,%zu,%zu,%d,%d\n", r.frame_index, r.timestamp,
                       toString(r.track.state), r.keypoints, r.keypoints - r.dynamic_keypoints, r.track.matches,
                       r.feature_count);
-        frames_csv << line;
+        frames_csv << line << std::flush;
       }
       prev_state = r.track.state;
       done = k + 1;
@@ -207,7 +279,8 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
 }
 
 void writeTrajectory(const std::string& path, const config::PipelineConfig& pc, const Trajectory& traj,
-                     const std::vector<int>& lost, size_t frames) {
+                     const std::vector<int>& lost, const RunSummary& sum) {
+  const size_t frames = sum.frames;
   traj::WriteOptions wo;
   wo.format = traj::formatFromString(pc.outputs.getString("trajectory_format"));
   wo.kitti_with_times = true;
@@ -219,6 +292,7 @@ void writeTrajectory(const std::string& path, const config::PipelineConfig& pc, 
     for (size_t i = 0; i < lost.size() && i < 200; i++) h << " " << lost[i];
     if (lost.size() > 200) h << " ...";
   }
+  if (!sum.finished) h << "\nrun stopped early (" << sum.stopped_by << "): the frames after these were not processed";
   h << "\ntimestamp tx ty tz qx qy qz qw";
   wo.header = h.str();
   traj::write(path, traj, wo);
@@ -245,6 +319,8 @@ std::string evaluateAte(const DatasetSource& reader, const Trajectory& traj, Run
 void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc, const RunSummary& sum) {
   json j;
   j["pipeline"] = pc.name;
+  j["finished"] = sum.finished;
+  j["stopped_by"] = sum.stopped_by;
   j["frames"] = sum.frames;
   j["tracked"] = sum.tracked;
   j["keyframes"] = sum.keyframes;
@@ -258,8 +334,9 @@ void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc,
     j["ate_rmse"] = *sum.ate_rmse;
     j["ate_pairs"] = sum.ate_pairs;
   }
-  std::ofstream f(path);
+  AtomicOfstream f(path);
   f << j.dump() << "\n";
+  f.commit();
 }
 
 void printSummary(const config::PipelineConfig& pc, const RunSummary& sum, const std::string& ate_txt,
@@ -286,7 +363,7 @@ Trajectory writeOutputs(System& sys, const config::PipelineConfig& pc, const Run
   std::vector<int> lost;
   Trajectory traj = sys.cameraTrajectory(&lost);
   if (const std::string tp = outPath(pc, out, "trajectory"); !tp.empty())
-    writeTrajectory(tp, pc, traj, lost, sum.frames);
+    writeTrajectory(tp, pc, traj, lost, sum);
   const Trajectory kft = sys.keyframeTrajectory();
   if (const std::string kp = outPath(pc, out, "keyframe_trajectory"); !kp.empty())
     traj::writeTum(kp, kft, "dslam keyframe trajectory (T_wc), pipeline " + pc.name);
@@ -330,6 +407,9 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
     frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count\n";
   }
   sys->setEventSink([&ev](const std::string& e) { ev.write(e); });
+  IncrementalTrajectory traj_out;
+  traj_out.open(outPath(pc, out, "trajectory"), pc.name);
+  StopSignals stop_signals;
 
   const size_t n_all = reader->size();
   const size_t start = static_cast<size_t>(std::max(0, dc.start));
@@ -341,7 +421,11 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
                                << ") on " << reader->root() << ": " << n << " frames, camera " << cam.name << " "
                                << cam.left.width << "x" << cam.left.height << ", output " << out);
   const double wall0 = nowSeconds();
-  LoopOutcome lo = frameLoop(*reader, *sys, dc, start, stride, n, ov, ev, frames_csv, sum);
+  LoopOutcome lo = frameLoop(*reader, *sys, dc, start, stride, n, ov, ev, frames_csv, traj_out, sum);
+  traj_out.close();
+  sum.finished = !lo.failure && !lo.stop_signal;
+  sum.stopped_by = lo.failure ? "error" : lo.stop_signal == SIGINT ? "SIGINT" : lo.stop_signal == SIGTERM ? "SIGTERM" : "";
+  sum.stop_signal = lo.stop_signal;
   sys->shutdown();
   sys->setEventSink(nullptr);
   sum.wall_s = nowSeconds() - wall0;

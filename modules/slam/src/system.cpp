@@ -6,6 +6,7 @@
 #include <future>
 #include <set>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/worker.h"
@@ -464,8 +465,8 @@ Trajectory System::keyframeTrajectory() const {
 void System::writePly(const std::string& path) const {
   auto m = map();
   std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
-  std::ofstream f(path);
-  if (!f) throw DataError("cannot write map PLY: " + path);
+  AtomicOfstream out(path);
+  std::ofstream& f = out.stream();
   size_t n = 0;
   for (const auto& [id, p] : m->points()) n += !p->bad;
   f << "ply\nformat ascii 1.0\ncomment dslam map " << m->id << "\nelement vertex " << n
@@ -481,6 +482,7 @@ void System::writePly(const std::string& path) const {
                   static_cast<int>(p->class_id));
     f << buf;
   }
+  out.commit();
 }
 
 }  // namespace dslam

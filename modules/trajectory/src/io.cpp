@@ -9,6 +9,7 @@
 #include <sstream>
 #include <vector>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/yaml_util.h"
@@ -222,8 +223,8 @@ Trajectory read(const std::string& path, const ReadOptions& opt) {
 }
 
 void write(const std::string& path, const Trajectory& t, const WriteOptions& opt) {
-  std::ofstream f(path);
-  if (!f) throw DataError("cannot write trajectory file: " + path);
+  AtomicOfstream out(path);  // complete or not there: never a truncated file
+  std::ofstream& f = out.stream();
   auto header = [&](const char* prefix) {
     std::istringstream in(opt.header);
     std::string l;
@@ -269,7 +270,7 @@ void write(const std::string& path, const Trajectory& t, const WriteOptions& opt
       }
       break;
   }
-  if (!f) throw DataError("error writing trajectory file: " + path);
+  out.commit();
 }
 
 void writeTum(const std::string& path, const Trajectory& t, const std::string& header) {

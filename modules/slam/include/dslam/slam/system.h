@@ -162,6 +162,9 @@ struct RunSummary {
   std::optional<double> ate_rmse;  ///< metres, SE(3) alignment, when ground truth exists
   size_t ate_pairs = 0;
   std::string out_dir;
+  bool finished = false;   ///< every frame was processed (no error, no signal)
+  std::string stopped_by;  ///< "" | "error" | "SIGINT" | "SIGTERM"
+  int stop_signal = 0;     ///< the signal that stopped the run (dslam run exits with 128 + it)
 };
 
 /** Runs a pipeline on its dataset, writes every output, prints the summary. */
