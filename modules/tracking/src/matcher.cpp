@@ -5,6 +5,7 @@
 #include <functional>
 
 #include "dslam/features/descriptor.h"
+#include "dslam/features/rotation_histogram.h"
 #include "dslam/map/map.h"
 
 namespace dslam {
@@ -13,27 +14,6 @@ namespace {
 
 inline int dist(const Descriptor& a, const cv::Mat& d, size_t row) {
   return descriptorDistance(a.data(), d.ptr<uint8_t>(static_cast<int>(row)));
-}
-
-/** Indices of the three highest bins; second/third only if >= 10% of the first (ORB-SLAM ComputeThreeMaxima). */
-void threeMaxima(const std::vector<std::vector<int>>& hist, int& i1, int& i2, int& i3) {
-  int m1 = 0, m2 = 0, m3 = 0;
-  i1 = i2 = i3 = -1;
-  for (int i = 0; i < static_cast<int>(hist.size()); i++) {
-    const int s = static_cast<int>(hist[i].size());
-    if (s > m1) {
-      m3 = m2; i3 = i2;
-      m2 = m1; i2 = i1;
-      m1 = s; i1 = i;
-    } else if (s > m2) {
-      m3 = m2; i3 = i2;
-      m2 = s; i2 = i;
-    } else if (s > m3) {
-      m3 = s; i3 = i;
-    }
-  }
-  if (m2 < 0.1f * m1) { i2 = -1; i3 = -1; }
-  else if (m3 < 0.1f * m1) { i3 = -1; }
 }
 
 }  // namespace
@@ -54,22 +34,8 @@ int Matcher::dropByOrientation(const std::vector<float>& rot_diff, std::vector<i
 void Matcher::orientationFilter(const std::vector<float>& rot_diff, std::vector<int>& ids, std::vector<bool>& keep) const {
   keep.assign(ids.size(), true);
   if (!p_.check_orientation || ids.empty()) return;
-  std::vector<std::vector<int>> hist(p_.histo_length);
-  const float factor = static_cast<float>(p_.histo_length) / 360.f;
-  for (size_t k = 0; k < ids.size(); k++) {
-    float r = rot_diff[k];
-    if (r < 0) r += 360.f;
-    int bin = static_cast<int>(std::round(r * factor));
-    if (bin == p_.histo_length) bin = 0;
-    bin = std::clamp(bin, 0, p_.histo_length - 1);
-    hist[bin].push_back(static_cast<int>(k));
-  }
-  int i1, i2, i3;
-  threeMaxima(hist, i1, i2, i3);
-  for (int b = 0; b < p_.histo_length; b++) {
-    if (b == i1 || b == i2 || b == i3) continue;
-    for (int k : hist[b]) keep[k] = false;
-  }
+  keep = rotationConsistent(std::vector<float>(rot_diff.begin(), rot_diff.begin() + static_cast<long>(ids.size())),
+                            p_.histo_length);
 }
 
 int Matcher::searchByProjection(TrackedFrame& F, const std::vector<MapPointPtr>& pts, float th) const {

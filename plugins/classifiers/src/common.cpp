@@ -2,6 +2,8 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "dslam/features/rotation_histogram.h"
+
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -134,31 +136,6 @@ MatchParams matchParams(const Params& p) {
   return m;
 }
 
-namespace {
-// ORBmatcher::ComputeThreeMaxima
-void threeMaxima(const std::vector<std::vector<int>>& h, int& i1, int& i2, int& i3) {
-  size_t m1 = 0, m2 = 0, m3 = 0;
-  i1 = i2 = i3 = -1;
-  for (int i = 0; i < static_cast<int>(h.size()); i++) {
-    const size_t s = h[i].size();
-    if (s > m1) {
-      m3 = m2, m2 = m1, m1 = s;
-      i3 = i2, i2 = i1, i1 = i;
-    } else if (s > m2) {
-      m3 = m2, m2 = s;
-      i3 = i2, i2 = i;
-    } else if (s > m3) {
-      m3 = s;
-      i3 = i;
-    }
-  }
-  if (static_cast<double>(m2) < 0.1 * static_cast<double>(m1)) {
-    i2 = i3 = -1;
-  } else if (static_cast<double>(m3) < 0.1 * static_cast<double>(m1)) {
-    i3 = -1;
-  }
-}
-}  // namespace
 
 std::vector<int> matchDescriptors(const std::vector<cv::KeyPoint>& ck, const cv::Mat& cd, const std::vector<int>& cur,
                                   const std::vector<cv::KeyPoint>& pk, const cv::Mat& pd, const std::vector<int>& prev,
@@ -186,8 +163,8 @@ std::vector<int> matchDescriptors(const std::vector<cv::KeyPoint>& ck, const cv:
     int cur = -1;        // position in `cur` of its match
   };
   std::vector<PrevState> pst(prev.size());
-  constexpr int kHisto = 30;
-  std::vector<std::vector<int>> hist(kHisto);
+  std::vector<int> matched;     // positions in `cur` with a match, in match order
+  std::vector<float> rot_diff;  // their keypoint angle differences
   std::vector<int> cand;
 
   for (size_t i = 0; i < cur.size(); i++) {
@@ -229,21 +206,14 @@ std::vector<int> matchDescriptors(const std::vector<cv::KeyPoint>& ck, const cv:
     pst[best_j].cur = static_cast<int>(i);
     pst[best_j].dist = best;
     if (mp.check_orientation) {
-      float rot = kc.angle - pk[prev[best_j]].angle;
-      if (rot < 0) rot += 360.f;
-      int bin = static_cast<int>(std::lround(rot / kHisto));  // ORB-SLAM: round(rot * (1/30))
-      if (bin >= kHisto) bin = 0;
-      if (bin < 0) bin = 0;
-      hist[bin].push_back(static_cast<int>(i));
+      matched.push_back(static_cast<int>(i));
+      rot_diff.push_back(kc.angle - pk[prev[best_j]].angle);
     }
   }
   if (mp.check_orientation) {
-    int i1, i2, i3;
-    threeMaxima(hist, i1, i2, i3);
-    for (int b = 0; b < kHisto; b++) {
-      if (b == i1 || b == i2 || b == i3) continue;
-      for (int i : hist[b]) out[i] = -1;
-    }
+    const std::vector<bool> keep = rotationConsistent(rot_diff);  // 12-degree bins, rotation_histogram.h
+    for (size_t k = 0; k < matched.size(); k++)
+      if (!keep[k]) out[matched[k]] = -1;
   }
   for (int& o : out)
     if (o >= 0) o = prev[o];
