@@ -14,7 +14,7 @@
 
 #include "dslam/core/camera.h"
 #include "dslam/core/error.h"
-#include "dslam/features/descriptor.h"
+#include "dslam/core/descriptor.h"
 #include "dslam/features/feature_grid.h"
 #include "dslam/features/orb_extractor.h"
 #include "synth_images.h"

@@ -9,7 +9,7 @@
 #include <utility>
 
 #include "dslam/core/error.h"
-#include "dslam/features/descriptor.h"
+#include "dslam/core/descriptor.h"
 #include "dslam/features/orb_extractor.h"
 
 #if defined(__SSE2__)

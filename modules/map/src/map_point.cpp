@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "dslam/features/descriptor.h"
+#include "dslam/core/descriptor.h"
 #include "dslam/map/keyframe.h"
 #include "dslam/map/map.h"
 

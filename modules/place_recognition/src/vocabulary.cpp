@@ -2,12 +2,12 @@
 #include "dslam/place_recognition/vocabulary.h"
 
 #include <algorithm>
-#include <bit>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <sstream>
 
+#include "dslam/core/descriptor.h"
 #include "dslam/core/error.h"
 
 #ifndef DSLAM_DEFAULT_VOCABULARY
@@ -18,9 +18,9 @@ namespace dslam {
 
 namespace {
 
+/** Hamming distance of two descriptors stored as 4 x 64 bits. */
 inline int dist(const uint64_t* a, const uint64_t* b) {
-  return std::popcount(a[0] ^ b[0]) + std::popcount(a[1] ^ b[1]) + std::popcount(a[2] ^ b[2]) +
-         std::popcount(a[3] ^ b[3]);
+  return descriptorDistance(reinterpret_cast<const uint8_t*>(a), reinterpret_cast<const uint8_t*>(b));
 }
 
 void checkDescriptors(const cv::Mat& d) {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <functional>
 
-#include "dslam/features/descriptor.h"
+#include "dslam/core/descriptor.h"
 #include "dslam/features/rotation_histogram.h"
 #include "dslam/map/map.h"
 

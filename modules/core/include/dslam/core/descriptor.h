@@ -1,6 +1,7 @@
 #pragma once
 /** \file descriptor.h
- *  Hamming distance between 32-byte (256-bit) ORB descriptors. */
+ *  Hamming distance between 32-byte (256-bit) ORB descriptors: the one
+ *  implementation (front end, matcher, classifiers, vocabulary). */
 #include <cstdint>
 #include <cstring>
 
