@@ -7,10 +7,11 @@
 #include <set>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "dslam/core/dataset.h"
 #include "dslam/core/params.h"
 #include "dslam/core/registry.h"
-#include "dslam/synth/json.h"
 #include "dslam/synth/writer.h"
 #include "test_support.h"
 
@@ -162,23 +163,23 @@ events:
 )";
   const std::string out = dslam::test::tempDir("synth_ev") + "/seq";
   writeSequence(parseScenario(yaml, "events.yaml"), out, WriteOptions{false, 0, false});
-  const json::Value oj = json::parseFile(out + "/objects.json");
+  const auto oj = nlohmann::json::parse(dslam::test::readFile(out + "/objects.json"));
   ASSERT_EQ(oj["events"].size(), 3u);
-  EXPECT_EQ(oj["events"][0]["type"].string(), "removed");
-  EXPECT_EQ(oj["events"][0]["frames"][0].integer(), 8);
-  EXPECT_TRUE(oj["events"][0]["in_view"].b);
-  EXPECT_EQ(oj["events"][1]["by"].string(), "plant");
-  EXPECT_EQ(oj["events"][2]["frames"][1].integer(), 20);
+  EXPECT_EQ(oj["events"][0]["type"].get<std::string>(), "removed");
+  EXPECT_EQ(oj["events"][0]["frames"][0].get<int>(), 8);
+  EXPECT_TRUE(oj["events"][0]["in_view"].get<bool>());
+  EXPECT_EQ(oj["events"][1]["by"].get<std::string>(), "plant");
+  EXPECT_EQ(oj["events"][2]["frames"][1].get<int>(), 20);
   // Presence ranges.
-  EXPECT_EQ(oj["objects"][0]["present"][0][1].integer(), 7);
-  EXPECT_EQ(oj["objects"][2]["present"][0][0].integer(), 12);
-  EXPECT_EQ(oj["objects"][3]["category_id"].integer(), 0);
-  EXPECT_FALSE(oj["objects"][3]["labelled"].b);
+  EXPECT_EQ(oj["objects"][0]["present"][0][1].get<int>(), 7);
+  EXPECT_EQ(oj["objects"][2]["present"][0][0].get<int>(), 12);
+  EXPECT_EQ(oj["objects"][3]["category_id"].get<int>(), 0);
+  EXPECT_FALSE(oj["objects"][3]["labelled"].get<bool>());
   // The ball's track has a pose per frame of the move and none after.
   const auto& track = oj["objects"][3]["track"];
-  EXPECT_EQ(track[track.size() - 1][0].integer(), 20);
-  EXPECT_NEAR(track[track.size() - 1][2].number(), -1.2, 1e-9);
-  EXPECT_EQ(oj["people"][0]["category_id"].integer(), 1);
+  EXPECT_EQ(track[track.size() - 1][0].get<int>(), 20);
+  EXPECT_NEAR(track[track.size() - 1][2].get<double>(), -1.2, 1e-9);
+  EXPECT_EQ(oj["people"][0]["category_id"].get<int>(), 1);
 
   std::vector<std::string> stamps;
   {
@@ -196,13 +197,13 @@ events:
   EXPECT_GT(cv::countNonZero(sem(12) == 64), 100);  // potted plant after
 
   // panoptic.json: COCO panoptic format, ids encoded as R + 256 G + 256^2 B.
-  const json::Value pj = json::parseFile(out + "/panoptic.json");
+  const auto pj = nlohmann::json::parse(dslam::test::readFile(out + "/panoptic.json"));
   ASSERT_EQ(pj["annotations"].size(), 24u);
   EXPECT_EQ(pj["categories"].size(), 133u);
   for (int f : {0, 13}) {
-    const json::Value& ann = pj["annotations"][static_cast<size_t>(f)];
-    EXPECT_EQ(ann["file_name"].string(), stamps[static_cast<size_t>(f)] + ".png");
-    const cv::Mat png = cv::imread(out + "/panoptic/" + ann["file_name"].string(), cv::IMREAD_COLOR);
+    const auto& ann = pj["annotations"][static_cast<size_t>(f)];
+    EXPECT_EQ(ann["file_name"].get<std::string>(), stamps[static_cast<size_t>(f)] + ".png");
+    const cv::Mat png = cv::imread(out + "/panoptic/" + ann["file_name"].get<std::string>(), cv::IMREAD_COLOR);
     ASSERT_EQ(png.type(), CV_8UC3);
     std::map<int, int> area;
     for (int y = 0; y < png.rows; y++)
@@ -213,10 +214,10 @@ events:
     const auto& segs = ann["segments_info"];
     std::set<int> cats;
     for (size_t i = 0; i < segs.size(); i++) {
-      EXPECT_EQ(segs[i]["area"].integer(), area[segs[i]["id"].integer()]);
-      EXPECT_EQ(segs[i]["iscrowd"].integer(), 0);
+      EXPECT_EQ(segs[i]["area"].get<int>(), area[segs[i]["id"].get<int>()]);
+      EXPECT_EQ(segs[i]["iscrowd"].get<int>(), 0);
       EXPECT_EQ(segs[i]["bbox"].size(), 4u);
-      cats.insert(segs[i]["category_id"].integer());
+      cats.insert(segs[i]["category_id"].get<int>());
     }
     EXPECT_TRUE(cats.count(199) && cats.count(190) && cats.count(1));  // wall, floor, person
     EXPECT_GT(area[0], 100);  // the unlabelled ball is void

@@ -3,6 +3,8 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <nlohmann/json.hpp>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -15,10 +17,10 @@
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/trajectory.h"
-#include "dslam/synth/json.h"
 #include "dslam/trajectory/io.h"
 
 namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
 
 namespace dslam::synth {
 
@@ -27,18 +29,6 @@ namespace {
 std::string stampName(double t) {
   char b[64];
   std::snprintf(b, sizeof b, "%.6f", t);
-  return b;
-}
-
-std::string num(double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
-}
-
-std::string num9(double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.9g", v);
   return b;
 }
 
@@ -67,12 +57,48 @@ cv::Mat panopticPng(const cv::Mat& ids) {
   return out;
 }
 
-std::string poseJson(int frame, const SE3& T) {
+/** A JSON number printed as `fmt` prints it (the shortest text of the
+ *  rounded double is that text). */
+ojson rounded(double v, const char* fmt) {
+  char b[64];
+  std::snprintf(b, sizeof b, fmt, v);
+  return std::strtod(b, nullptr);
+}
+ojson num(double v) { return rounded(v, "%.6g"); }
+ojson num9(double v) { return rounded(v, "%.9g"); }
+ojson stamp(double t) { return rounded(t, "%.6f"); }
+
+ojson poseJson(int frame, const SE3& T) {
   const auto& q = T.quaternion();
   const auto& t = T.translation();
+  return ojson::array({frame, num9(t.x()), num9(t.y()), num9(t.z()), num9(q.x()), num9(q.y()), num9(q.z()), num9(q.w())});
+}
+
+/** JSON text with the first `depth` levels of objects and arrays laid out one
+ *  member per line and everything deeper on one line (readable files without
+ *  one line per number of the long per-frame arrays). */
+void layout(std::ostream& o, const ojson& j, int depth, int indent = 0) {
+  if (depth <= 0 || !j.is_structured() || j.empty()) {
+    o << j.dump();
+    return;
+  }
+  const std::string pad(static_cast<size_t>(indent + 2), ' ');
+  const bool obj = j.is_object();
+  o << (obj ? '{' : '[');
+  bool first = true;
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    o << (first ? "\n" : ",\n") << pad;
+    if (obj) o << ojson(it.key()).dump() << ": ";
+    layout(o, it.value(), depth - 1, indent + 2);
+    first = false;
+  }
+  o << '\n' << std::string(static_cast<size_t>(indent), ' ') << (obj ? '}' : ']');
+}
+
+std::string layoutText(const ojson& j, int depth) {
   std::ostringstream o;
-  o << '[' << frame << ", " << num9(t.x()) << ", " << num9(t.y()) << ", " << num9(t.z()) << ", " << num9(q.x()) << ", "
-    << num9(q.y()) << ", " << num9(q.z()) << ", " << num9(q.w()) << ']';
+  layout(o, j, depth);
+  o << '\n';
   return o.str();
 }
 
@@ -95,6 +121,178 @@ void prepareDir(const std::string& out, bool overwrite) {
   fs::create_directories(out);
 }
 
+ojson boxesJson(const Scenario& s, int f, const FrameRender& fr) {
+  ojson boxes = ojson::array();
+  for (const Box2D& b : fr.boxes)
+    boxes.push_back({{"category_id", b.category_id},
+                     {"category", coco::name(b.category_id)},
+                     {"instance_id", b.instance_id},
+                     {"name", b.name},
+                     {"bbox", {b.box.x, b.box.y, b.box.width, b.box.height}},
+                     {"area", b.area},
+                     {"score", 1.0}});
+  return {{"frame", f},
+          {"timestamp", stamp(fr.timestamp)},
+          {"width", s.width},
+          {"height", s.height},
+          {"boxes", std::move(boxes)}};
+}
+
+ojson panopticAnnotation(int f, const std::string& st, const FrameRender& fr) {
+  ojson segs = ojson::array();
+  for (const Segment& sg : fr.segments) {
+    ojson j = {{"id", sg.id},
+               {"category_id", sg.category_id},
+               {"iscrowd", 0},
+               {"bbox", {sg.bbox.x, sg.bbox.y, sg.bbox.width, sg.bbox.height}},
+               {"area", sg.area}};
+    if (sg.instance_id > 0) j["instance_id"] = sg.instance_id;
+    segs.push_back(std::move(j));
+  }
+  return {{"image_id", f}, {"file_name", st + ".png"}, {"segments_info", std::move(segs)}};
+}
+
+/** COCO panoptic annotation file of the sequence. */
+ojson panopticJson(const Scenario& s, ojson images, ojson annos) {
+  ojson cats = ojson::array();
+  for (const auto& c : coco::categories())
+    cats.push_back({{"id", c.id},
+                    {"name", c.name},
+                    {"supercategory", c.isthing ? "thing" : "stuff"},
+                    {"isthing", c.isthing ? 1 : 0},
+                    {"color", {(c.id * 37) % 256, (c.id * 91) % 256, (c.id * 53) % 256}}});
+  return {{"info", {{"description", "dslam synth scenario " + s.name}, {"version", "1.0"}}},
+          {"licenses", ojson::array()},
+          {"images", std::move(images)},
+          {"annotations", std::move(annos)},
+          {"categories", std::move(cats)}};
+}
+
+/** [[first, last], ...] frame ranges where `on` is set. */
+ojson ranges(const std::vector<char>& on) {
+  ojson r = ojson::array();
+  int a = -1;
+  const int n = static_cast<int>(on.size());
+  for (int f = 0; f <= n; f++) {
+    const bool v = f < n && on[static_cast<size_t>(f)];
+    if (v && a < 0) a = f;
+    if (!v && a >= 0) {
+      r.push_back({a, f - 1});
+      a = -1;
+    }
+  }
+  return r;
+}
+
+ojson objectJson(const Scenario& s, const SceneModel& scene, size_t i, const std::vector<int>& visible) {
+  const ObjectSpec& o = s.objects[i];
+  std::vector<char> on(static_cast<size_t>(s.frames));
+  ojson track = ojson::array();
+  SE3 last;
+  bool have = false;
+  for (int f = 0; f < s.frames; f++) {
+    const ObjectState st = scene.objectState(i, f);
+    on[static_cast<size_t>(f)] = st.present;
+    if (st.present && (!have || !samePose(st.T_wo, last))) {
+      track.push_back(poseJson(f, st.T_wo));
+      last = st.T_wo;
+      have = true;
+    }
+  }
+  const auto& inst = scene.instances()[static_cast<size_t>(o.instance_id)];
+  return {{"instance_id", o.instance_id},
+          {"name", o.name},
+          {"kind", "object"},
+          {"type", o.type},
+          {"class", o.class_name},
+          {"category_id", o.category_id},
+          {"labelled", o.labelled},
+          {"isthing", inst.isthing},
+          {"panoptic_id", panopticId(inst)},
+          {"size", {num(o.size.x()), num(o.size.y()), num(o.size.z())}},
+          {"moving", !o.path.empty()},
+          {"present", ranges(on)},
+          {"track", std::move(track)},
+          {"visible_pixels", visible}};
+}
+
+ojson personJson(const Scenario& s, const SceneModel& scene, size_t i, const std::vector<int>& visible) {
+  const PersonSpec& p = s.people[i];
+  std::vector<char> on(static_cast<size_t>(s.frames));
+  ojson track = ojson::array();
+  for (int f = 0; f < s.frames; f++) {
+    on[static_cast<size_t>(f)] = scene.personPresent(i, f);
+    if (on[static_cast<size_t>(f)]) track.push_back(poseJson(f, scene.personRoot(i, s.time(f))));
+  }
+  return {{"instance_id", p.instance_id},
+          {"name", p.name},
+          {"kind", "person"},
+          {"action", p.action},
+          {"class", "person"},
+          {"category_id", 1},
+          {"labelled", true},
+          {"isthing", true},
+          {"panoptic_id", 1000 + p.instance_id},
+          {"height", num(p.height)},
+          {"present", ranges(on)},
+          {"track_frame", "pelvis (x forward, z up)"},
+          {"track", std::move(track)},
+          {"visible_pixels", visible}};
+}
+
+ojson eventJson(const Scenario& s, const EventSpec& e, const std::vector<std::vector<int>>& visible) {
+  const ObjectSpec* a = s.findObject(e.object);
+  const ObjectSpec* b = e.by.empty() ? nullptr : s.findObject(e.by);
+  // Visibility of the objects concerned during the change (frames first-1 .. last).
+  int vis = 0;
+  for (int f = std::max(0, e.first - 1); f <= e.last; f++) {
+    vis += visible[static_cast<size_t>(a->instance_id)][static_cast<size_t>(f)];
+    if (b) vis += visible[static_cast<size_t>(b->instance_id)][static_cast<size_t>(f)];
+  }
+  ojson j = {{"type", e.type}, {"object", e.object}, {"instance_id", a->instance_id}};
+  if (b) {
+    j["by"] = e.by;
+    j["by_instance_id"] = b->instance_id;
+  }
+  j["frames"] = {e.first, e.last};
+  j["timestamps"] = {stamp(s.stamp(e.first)), stamp(s.stamp(e.last))};
+  if (e.type == "moved") j["to"] = {num(e.position.x()), num(e.position.y()), num(e.position.z())};
+  j["visible_pixels_during"] = vis;
+  j["in_view"] = vis > 0;
+  return j;
+}
+
+/** objects.json: classes, sizes, poses over time, visibility, events. */
+ojson objectsJson(const Scenario& s, const SceneModel& scene, const std::vector<std::vector<int>>& visible) {
+  ojson objects = ojson::array(), people = ojson::array(), events = ojson::array();
+  for (size_t i = 0; i < s.objects.size(); i++)
+    objects.push_back(objectJson(s, scene, i, visible[static_cast<size_t>(s.objects[i].instance_id)]));
+  for (size_t i = 0; i < s.people.size(); i++)
+    people.push_back(personJson(s, scene, i, visible[static_cast<size_t>(s.people[i].instance_id)]));
+  for (const EventSpec& e : s.events) events.push_back(eventJson(s, e, visible));
+  return {{"scenario", s.name},
+          {"source", s.file},
+          {"seed", s.seed},
+          {"frames", s.frames},
+          {"rate", num(s.rate)},
+          {"start_time", stamp(s.start_time)},
+          {"width", s.width},
+          {"height", s.height},
+          {"intrinsics",
+           {{"fx", num9(s.intrinsics.fx)}, {"fy", num9(s.intrinsics.fy)}, {"cx", num9(s.intrinsics.cx)},
+            {"cy", num9(s.intrinsics.cy)}}},
+          {"baseline", num(s.baseline)},
+          {"depth_factor", 5000},
+          {"room",
+           {{"size", {num(s.room.size.x()), num(s.room.size.y()), num(s.room.size.z())}},
+            {"walls_category_id", 199},
+            {"floor_category_id", 190},
+            {"ceiling_category_id", 186}}},
+          {"objects", std::move(objects)},
+          {"people", std::move(people)},
+          {"events", std::move(events)}};
+}
+
 }  // namespace
 
 std::string writeSequence(const Scenario& s, const std::string& out_dir, const WriteOptions& opt, WriteStats* stats) {
@@ -114,7 +312,8 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
   const SceneModel& scene = R.scene();
   const auto& inst = scene.instances();
 
-  std::ostringstream rgb_txt, depth_txt, assoc, times, pan_images, pan_annos;
+  std::ostringstream rgb_txt, depth_txt, assoc, times;
+  ojson pan_images = ojson::array(), pan_annos = ojson::array();
   const std::string header = "# dslam synth: scenario '" + s.name + "', seed " + std::to_string(s.seed) + "\n";
   rgb_txt << "# color images\n" << header << "# timestamp filename\n";
   depth_txt << "# depth maps (uint16, 5000 per metre)\n" << header << "# timestamp filename\n";
@@ -152,31 +351,13 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
       for (int i = r.start; i < r.end; i++) writePng(imgs[static_cast<size_t>(i)].first, imgs[static_cast<size_t>(i)].second);
     });
     if (opt.labels) {
-      std::ostringstream bj;
-      bj << "{\"frame\": " << f << ", \"timestamp\": " << st << ", \"width\": " << s.width << ", \"height\": " << s.height
-         << ", \"boxes\": [";
-      for (size_t i = 0; i < fr.boxes.size(); i++) {
-        const Box2D& b = fr.boxes[i];
-        bj << (i ? ",\n  " : "\n  ") << "{\"category_id\": " << b.category_id << ", \"category\": "
-           << json::quote(coco::name(b.category_id)) << ", \"instance_id\": " << b.instance_id
-           << ", \"name\": " << json::quote(b.name) << ", \"bbox\": [" << b.box.x << ", " << b.box.y << ", " << b.box.width
-           << ", " << b.box.height << "], \"area\": " << b.area << ", \"score\": 1.0}";
-      }
-      bj << (fr.boxes.empty() ? "]}\n" : "\n]}\n");
-      writeText((root / "boxes" / (st + ".json")).string(), bj.str());
-      pan_images << (f ? ",\n    " : "\n    ") << "{\"id\": " << f << ", \"file_name\": \"" << st << ".png\", \"width\": "
-                 << s.width << ", \"height\": " << s.height << ", \"timestamp\": " << st << "}";
-      pan_annos << (f ? ",\n    " : "\n    ") << "{\"image_id\": " << f << ", \"file_name\": \"" << st
-                << ".png\", \"segments_info\": [";
-      for (size_t i = 0; i < fr.segments.size(); i++) {
-        const Segment& sg = fr.segments[i];
-        pan_annos << (i ? ", " : "") << "{\"id\": " << sg.id << ", \"category_id\": " << sg.category_id
-                  << ", \"iscrowd\": 0, \"bbox\": [" << sg.bbox.x << ", " << sg.bbox.y << ", " << sg.bbox.width << ", "
-                  << sg.bbox.height << "], \"area\": " << sg.area;
-        if (sg.instance_id > 0) pan_annos << ", \"instance_id\": " << sg.instance_id;
-        pan_annos << "}";
-      }
-      pan_annos << "]}";
+      writeText((root / "boxes" / (st + ".json")).string(), layoutText(boxesJson(s, f, fr), 2));
+      pan_images.push_back({{"id", f},
+                            {"file_name", st + ".png"},
+                            {"width", s.width},
+                            {"height", s.height},
+                            {"timestamp", stamp(fr.timestamp)}});
+      pan_annos.push_back(panopticAnnotation(f, st, fr));
     }
     if (opt.progress) prog.update(static_cast<size_t>(f + 1));
   }
@@ -214,116 +395,8 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
     calib += b;
     writeText((root / "calib.txt").string(), calib);
   }
-  if (opt.labels) {
-    std::ostringstream pj;
-    pj << "{\n  \"info\": {\"description\": " << json::quote("dslam synth scenario " + s.name)
-       << ", \"version\": \"1.0\"},\n  \"licenses\": [],\n  \"images\": [" << pan_images.str() << "\n  ],\n  \"annotations\": ["
-       << pan_annos.str() << "\n  ],\n  \"categories\": [";
-    bool first = true;
-    for (const auto& c : coco::categories()) {
-      pj << (first ? "\n    " : ",\n    ") << "{\"id\": " << c.id << ", \"name\": " << json::quote(c.name)
-         << ", \"supercategory\": " << json::quote(c.isthing ? "thing" : "stuff") << ", \"isthing\": " << (c.isthing ? 1 : 0)
-         << ", \"color\": [" << (c.id * 37) % 256 << ", " << (c.id * 91) % 256 << ", " << (c.id * 53) % 256 << "]}";
-      first = false;
-    }
-    pj << "\n  ]\n}\n";
-    writeText((root / "panoptic.json").string(), pj.str());
-  }
-
-  // objects.json: classes, sizes, poses over time, visibility, events.
-  std::ostringstream oj;
-  oj << "{\n  \"scenario\": " << json::quote(s.name) << ",\n  \"source\": " << json::quote(s.file) << ",\n  \"seed\": " << s.seed
-     << ",\n  \"frames\": " << s.frames << ",\n  \"rate\": " << num(s.rate) << ",\n  \"start_time\": " << stampName(s.start_time)
-     << ",\n  \"width\": " << s.width << ",\n  \"height\": " << s.height << ",\n  \"intrinsics\": {\"fx\": " << num9(s.intrinsics.fx)
-     << ", \"fy\": " << num9(s.intrinsics.fy) << ", \"cx\": " << num9(s.intrinsics.cx) << ", \"cy\": " << num9(s.intrinsics.cy)
-     << "},\n  \"baseline\": " << num(s.baseline) << ",\n  \"depth_factor\": 5000,\n  \"room\": {\"size\": [" << num(s.room.size.x())
-     << ", " << num(s.room.size.y()) << ", " << num(s.room.size.z())
-     << "], \"walls_category_id\": 199, \"floor_category_id\": 190, \"ceiling_category_id\": 186},\n  \"objects\": [";
-  auto rangesJson = [&](const std::vector<char>& on) {
-    std::string r = "[";
-    int a = -1;
-    bool firstr = true;
-    for (int f = 0; f <= s.frames; f++) {
-      const bool v = f < s.frames && on[static_cast<size_t>(f)];
-      if (v && a < 0) a = f;
-      if (!v && a >= 0) {
-        r += (firstr ? "[" : ", [") + std::to_string(a) + ", " + std::to_string(f - 1) + "]";
-        firstr = false;
-        a = -1;
-      }
-    }
-    return r + "]";
-  };
-  auto visJson = [&](int iid) {
-    std::ostringstream r;
-    r << '[';
-    for (int f = 0; f < s.frames; f++) r << (f ? "," : "") << visible[static_cast<size_t>(iid)][static_cast<size_t>(f)];
-    r << ']';
-    return r.str();
-  };
-  for (size_t i = 0; i < s.objects.size(); i++) {
-    const ObjectSpec& o = s.objects[i];
-    std::vector<char> on(static_cast<size_t>(s.frames));
-    std::string track;
-    SE3 last;
-    bool have = false;
-    for (int f = 0; f < s.frames; f++) {
-      const ObjectState st = scene.objectState(i, f);
-      on[static_cast<size_t>(f)] = st.present;
-      if (st.present && (!have || !samePose(st.T_wo, last))) {
-        track += (track.empty() ? "\n      " : ",\n      ") + poseJson(f, st.T_wo);
-        last = st.T_wo;
-        have = true;
-      }
-    }
-    oj << (i ? ",\n    " : "\n    ") << "{\"instance_id\": " << o.instance_id << ", \"name\": " << json::quote(o.name)
-       << ", \"kind\": \"object\", \"type\": " << json::quote(o.type) << ", \"class\": " << json::quote(o.class_name)
-       << ", \"category_id\": " << o.category_id << ", \"labelled\": " << (o.labelled ? "true" : "false")
-       << ", \"isthing\": " << (scene.instances()[static_cast<size_t>(o.instance_id)].isthing ? "true" : "false")
-       << ", \"panoptic_id\": " << panopticId(scene.instances()[static_cast<size_t>(o.instance_id)]) << ", \"size\": ["
-       << num(o.size.x()) << ", " << num(o.size.y()) << ", " << num(o.size.z()) << "], \"moving\": "
-       << (o.path.empty() ? "false" : "true") << ",\n     \"present\": " << rangesJson(on)
-       << ",\n     \"track\": [" << track << "],\n     \"visible_pixels\": " << visJson(o.instance_id) << "}";
-  }
-  oj << "\n  ],\n  \"people\": [";
-  for (size_t i = 0; i < s.people.size(); i++) {
-    const PersonSpec& p = s.people[i];
-    std::vector<char> on(static_cast<size_t>(s.frames));
-    std::string track;
-    for (int f = 0; f < s.frames; f++) {
-      on[static_cast<size_t>(f)] = scene.personPresent(i, f);
-      if (on[static_cast<size_t>(f)])
-        track += (track.empty() ? "\n      " : ",\n      ") + poseJson(f, scene.personRoot(i, s.time(f)));
-    }
-    oj << (i ? ",\n    " : "\n    ") << "{\"instance_id\": " << p.instance_id << ", \"name\": " << json::quote(p.name)
-       << ", \"kind\": \"person\", \"action\": " << json::quote(p.action)
-       << ", \"class\": \"person\", \"category_id\": 1, \"labelled\": true, \"isthing\": true, \"panoptic_id\": "
-       << 1000 + p.instance_id << ", \"height\": " << num(p.height) << ",\n     \"present\": " << rangesJson(on)
-       << ",\n     \"track_frame\": \"pelvis (x forward, z up)\",\n     \"track\": [" << track
-       << "],\n     \"visible_pixels\": " << visJson(p.instance_id) << "}";
-  }
-  oj << "\n  ],\n  \"events\": [";
-  for (size_t i = 0; i < s.events.size(); i++) {
-    const EventSpec& e = s.events[i];
-    const ObjectSpec* a = s.findObject(e.object);
-    const ObjectSpec* b = e.by.empty() ? nullptr : s.findObject(e.by);
-    // Visibility of the objects concerned during the change (frames first-1 .. last).
-    int vis = 0;
-    for (int f = std::max(0, e.first - 1); f <= e.last; f++) {
-      vis += visible[static_cast<size_t>(a->instance_id)][static_cast<size_t>(f)];
-      if (b) vis += visible[static_cast<size_t>(b->instance_id)][static_cast<size_t>(f)];
-    }
-    oj << (i ? ",\n    " : "\n    ") << "{\"type\": " << json::quote(e.type) << ", \"object\": " << json::quote(e.object)
-       << ", \"instance_id\": " << a->instance_id;
-    if (b) oj << ", \"by\": " << json::quote(e.by) << ", \"by_instance_id\": " << b->instance_id;
-    oj << ", \"frames\": [" << e.first << ", " << e.last << "], \"timestamps\": [" << stampName(s.stamp(e.first)) << ", "
-       << stampName(s.stamp(e.last)) << "]";
-    if (e.type == "moved")
-      oj << ", \"to\": [" << num(e.position.x()) << ", " << num(e.position.y()) << ", " << num(e.position.z()) << "]";
-    oj << ", \"visible_pixels_during\": " << vis << ", \"in_view\": " << (vis > 0 ? "true" : "false") << "}";
-  }
-  oj << "\n  ]\n}\n";
-  writeText((root / "objects.json").string(), oj.str());
+  if (opt.labels) writeText((root / "panoptic.json").string(), layoutText(panopticJson(s, pan_images, pan_annos), 2));
+  writeText((root / "objects.json").string(), layoutText(objectsJson(s, scene, visible), 3));
 
   if (stats) {
     stats->frames = s.frames;
@@ -340,21 +413,24 @@ std::string renderToFolder(const std::string& scenario_file, const std::string& 
 }
 
 std::vector<Box2D> readBoxes(const std::string& file) {
-  const json::Value v = json::parseFile(file);
+  std::ifstream in(file);
+  if (!in) throw DataError("cannot open box file " + file);
   std::vector<Box2D> out;
-  const json::Value& arr = v["boxes"];
-  for (size_t i = 0; i < arr.size(); i++) {
-    const json::Value& b = arr[i];
-    Box2D box;
-    box.category_id = b["category_id"].integer();
-    box.instance_id = b["instance_id"].integer();
-    if (b.has("name")) box.name = b["name"].string();
-    const json::Value& bb = b["bbox"];
-    box.box = cv::Rect2f(static_cast<float>(bb[0].number()), static_cast<float>(bb[1].number()),
-                         static_cast<float>(bb[2].number()), static_cast<float>(bb[3].number()));
-    box.score = static_cast<float>(b["score"].number());
-    if (b.has("area")) box.area = b["area"].integer();
-    out.push_back(box);
+  try {
+    const ojson v = ojson::parse(in);
+    for (const ojson& b : v.at("boxes")) {
+      Box2D box;
+      box.category_id = b.at("category_id").get<int>();
+      box.instance_id = b.at("instance_id").get<int>();
+      box.name = b.value("name", "");
+      const ojson& bb = b.at("bbox");
+      box.box = cv::Rect2f(bb.at(0).get<float>(), bb.at(1).get<float>(), bb.at(2).get<float>(), bb.at(3).get<float>());
+      box.score = b.at("score").get<float>();
+      box.area = b.value("area", box.area);
+      out.push_back(box);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw DataError(file + ": " + e.what());
   }
   return out;
 }
