@@ -1,5 +1,7 @@
 // `dslam dataset info PATH [--type dslam::X] [-p key=value]... [--check]`:
 // what a dataset reader sees in a folder / file (docs/datasets.md).
+#include <mrpt/containers/yaml.h>
+
 #include <cmath>
 #include <cstdio>
 #include <iomanip>
@@ -17,15 +19,6 @@
 #include "dslam/plugins/datasets/tum.h"
 
 namespace {
-
-std::string quote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
 
 std::string stamp(double t) {
   char b[64];
@@ -65,13 +58,15 @@ void info(const Opts& op) {
     throw ConfigError("cannot tell the dataset type of " + op.path + "; give --type (" + names + ")");
   }
   auto ds = create<DatasetSource>(type);
-  std::string y = "path: " + quote(op.path) + "\n";
+  mrpt::containers::yaml given = mrpt::containers::yaml::Map();
+  given["path"] = op.path;  // a string node: no YAML text is built from the path
   for (const auto& kv : op.params) {
     const auto eq = kv.find('=');
     if (eq == std::string::npos || eq == 0) throw ConfigError("--param expects KEY=VALUE, got '" + kv + "'");
-    y += kv.substr(0, eq) + ": " + kv.substr(eq + 1) + "\n";
+    // The value is YAML (typed by the parameter); the key is taken as it is.
+    given[kv.substr(0, eq).c_str()] = mrpt::containers::yaml::FromText(kv.substr(eq + 1));
   }
-  ds->configure(Params::resolve(ds->paramSpecs(), y), PluginContext{});
+  ds->configure(Params::resolve(ds->paramSpecs(), &given, SourceLocation{}), PluginContext{});
 
   auto& o = std::cout;
   o << std::setprecision(10);

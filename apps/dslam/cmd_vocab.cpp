@@ -1,5 +1,7 @@
 // `dslam vocab train|info|convert|query`: ORB bag-of-words vocabularies
 // (docs/place_recognition.md).
+#include <mrpt/containers/yaml.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,15 +32,6 @@ namespace {
 using namespace dslam;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-std::string quote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
 
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -157,7 +150,9 @@ void train(const TrainOpts& o) {
     std::string type = o.type.empty() ? config::detectDatasetType(path) : o.type;
     if (type.empty()) throw ConfigError("cannot tell the dataset type of " + path + "; give --type (e.g. dslam::TumDataset)");
     auto ds = create<DatasetSource>(type);
-    ds->configure(Params::resolve(ds->paramSpecs(), "path: " + quote(path) + "\n"), PluginContext{});
+    mrpt::containers::yaml given = mrpt::containers::yaml::Map();
+    given["path"] = path;  // a string node: no YAML text is built from the path
+    ds->configure(Params::resolve(ds->paramSpecs(), &given, SourceLocation{}), PluginContext{});
     const auto cam = ds->camera();
     const bool rgb_order = cam ? cam->rgb_order : true;
     const auto pick = spread(ds->size(), o.max_images);
