@@ -12,6 +12,8 @@
 #include <iostream>
 #include <map>
 
+#include <nlohmann/json.hpp>
+
 #include "command.h"
 #include "dslam/config/pipeline.h"
 #include "dslam/core/coco.h"
@@ -155,8 +157,10 @@ void setup(CLI::App& sub) {
       }
       const double lat = median(ms);
       if (o.json) {
-        std::cout << "{\"image\": \"" << f.image_path << "\", \"latency_ms\": " << lat
-                  << ", \"detections\": " << labels::detectionsJsonText(d) << "}\n";
+        const nlohmann::ordered_json j = {{"image", f.image_path},
+                                          {"latency_ms", lat},
+                                          {"detections", nlohmann::ordered_json::parse(labels::detectionsJsonText(d))}};
+        std::cout << j.dump() << "\n";
       } else {
         std::printf("%s: %zu boxes, %.1f ms%s\n", f.image_path.c_str(), d.boxes.size(), lat,
                     o.repeat > 1 ? (" (median of " + std::to_string(o.repeat) + ")").c_str() : "");

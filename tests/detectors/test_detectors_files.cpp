@@ -85,8 +85,9 @@ TEST(BoxJson, ErrorsNameFileAndLine) {
     labels::readBoxJson(dir + "/bad.json");
     FAIL();
   } catch (const DataError& e) {
-    EXPECT_NE(std::string(e.what()).find("bad.json:3"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("bbox"), std::string::npos) << e.what();
+    // the place in the file as a JSON path (boxes[1] is on line 3)
+    EXPECT_NE(std::string(e.what()).find("bad.json: boxes[1].bbox: must be a list of 4 numbers, got [1,2,3]"),
+              std::string::npos) << e.what();
   }
   test::writeFile(dir + "/nocat.json", "{\"boxes\": [{\"bbox\": [1, 2, 3, 4]}]}");
   EXPECT_THROW(labels::readBoxJson(dir + "/nocat.json"), DataError);
@@ -95,7 +96,8 @@ TEST(BoxJson, ErrorsNameFileAndLine) {
     labels::readBoxJson(dir + "/syntax.json");
     FAIL();
   } catch (const DataError& e) {
-    EXPECT_NE(std::string(e.what()).find("syntax.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("syntax.json:1:16: invalid JSON: syntax error"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -521,4 +523,36 @@ TEST(GroundTruthDetector, MissingFramePolicy) {
     EXPECT_NE(std::string(e.what()).find("not_a_frame"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("frame 3"), std::string::npos) << e.what();
   }
+}
+
+TEST(PanopticJson, MalformedFilesNameFileAndPlace) {
+  const std::string dir = test::tempDir("panjson");
+  test::writeFile(dir + "/a.json", "{\"annotations\": [{\"file_name\": \"1.png\", \"segments_info\": [\n"
+                                   "  {\"id\": 5, \"category_id\": \"person\"}]}]}");
+  const std::string m = test::dataError([&] { labels::readPanopticJson(dir + "/a.json"); });
+  EXPECT_NE(m.find("a.json: annotations[0].segments_info[0].category_id: must be a number, got \"person\""),
+            std::string::npos) << m;
+  test::writeFile(dir + "/b.json", "{\"annotations\": [{\"segments_info\": 3}]}");
+  const std::string m2 = test::dataError([&] { labels::readPanopticJson(dir + "/b.json"); });
+  EXPECT_NE(m2.find("b.json: annotations[0].segments_info: must be a list"), std::string::npos) << m2;
+  test::writeFile(dir + "/c.json", "{\"annotations\": [\n{\"segments_info\": [}\n]}");
+  const std::string m3 = test::dataError([&] { labels::readPanopticJson(dir + "/c.json"); });
+  EXPECT_NE(m3.find("c.json:2:"), std::string::npos) << m3;
+  EXPECT_NE(m3.find("invalid JSON"), std::string::npos) << m3;
+  // Round trip through the writer keeps everything the reader needs.
+  labels::PanopticAnnotation ann;
+  ann.file_name = "x \"quoted\"\tname.png";
+  PanopticSegment s;
+  s.id = 7;
+  s.category_id = 1;
+  s.bbox = {1, 2, 3, 4};
+  s.area = 12;
+  ann.segments.push_back(s);
+  labels::writePanopticJson(dir + "/w.json", {ann}, labels::cocoPanopticCategories());
+  const auto j = labels::readPanopticJson(dir + "/w.json");
+  ASSERT_EQ(j.annotations.size(), 1u);
+  EXPECT_EQ(j.annotations[0].file_name, ann.file_name);
+  ASSERT_EQ(j.annotations[0].segments.size(), 1u);
+  EXPECT_EQ(j.annotations[0].segments[0].bbox, cv::Rect(1, 2, 3, 4));
+  EXPECT_EQ(j.annotations[0].segments[0].kind, SegmentKind::Thing);
 }

@@ -15,6 +15,7 @@
 #include "dslam/config/camera_yaml.h"
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
+#include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
 #include "dslam/core/trajectory.h"
 #include "dslam/trajectory/io.h"
@@ -72,34 +73,6 @@ ojson poseJson(int frame, const SE3& T) {
   const auto& q = T.quaternion();
   const auto& t = T.translation();
   return ojson::array({frame, num9(t.x()), num9(t.y()), num9(t.z()), num9(q.x()), num9(q.y()), num9(q.z()), num9(q.w())});
-}
-
-/** JSON text with the first `depth` levels of objects and arrays laid out one
- *  member per line and everything deeper on one line (readable files without
- *  one line per number of the long per-frame arrays). */
-void layout(std::ostream& o, const ojson& j, int depth, int indent = 0) {
-  if (depth <= 0 || !j.is_structured() || j.empty()) {
-    o << j.dump();
-    return;
-  }
-  const std::string pad(static_cast<size_t>(indent + 2), ' ');
-  const bool obj = j.is_object();
-  o << (obj ? '{' : '[');
-  bool first = true;
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    o << (first ? "\n" : ",\n") << pad;
-    if (obj) o << ojson(it.key()).dump() << ": ";
-    layout(o, it.value(), depth - 1, indent + 2);
-    first = false;
-  }
-  o << '\n' << std::string(static_cast<size_t>(indent), ' ') << (obj ? '}' : ']');
-}
-
-std::string layoutText(const ojson& j, int depth) {
-  std::ostringstream o;
-  layout(o, j, depth);
-  o << '\n';
-  return o.str();
 }
 
 bool samePose(const SE3& a, const SE3& b) {
@@ -351,7 +324,7 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
       for (int i = r.start; i < r.end; i++) writePng(imgs[static_cast<size_t>(i)].first, imgs[static_cast<size_t>(i)].second);
     });
     if (opt.labels) {
-      writeText((root / "boxes" / (st + ".json")).string(), layoutText(boxesJson(s, f, fr), 2));
+      writeText((root / "boxes" / (st + ".json")).string(), layoutJson(boxesJson(s, f, fr), 2));
       pan_images.push_back({{"id", f},
                             {"file_name", st + ".png"},
                             {"width", s.width},
@@ -395,8 +368,8 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
     calib += b;
     writeText((root / "calib.txt").string(), calib);
   }
-  if (opt.labels) writeText((root / "panoptic.json").string(), layoutText(panopticJson(s, pan_images, pan_annos), 2));
-  writeText((root / "objects.json").string(), layoutText(objectsJson(s, scene, visible), 3));
+  if (opt.labels) writeText((root / "panoptic.json").string(), layoutJson(panopticJson(s, pan_images, pan_annos), 2));
+  writeText((root / "objects.json").string(), layoutJson(objectsJson(s, scene, visible), 3));
 
   if (stats) {
     stats->frames = s.frames;

@@ -1,0 +1,16 @@
+#pragma once
+/** \file json_layout.h
+ *  Readable JSON files: the first `depth` levels of objects and arrays one
+ *  member per line, everything deeper on one line (so long per-frame arrays
+ *  do not take one line per number). Every value is printed by nlohmann::json
+ *  (escaping, numbers); only the line breaks are chosen here. */
+#include <nlohmann/json_fwd.hpp>
+
+#include <string>
+
+namespace dslam {
+
+std::string layoutJson(const nlohmann::ordered_json& j, int depth);
+std::string layoutJson(const nlohmann::json& j, int depth);
+
+}  // namespace dslam
