@@ -10,7 +10,7 @@
 
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
-#include "dslam/features/descriptor.h"
+#include "dslam/core/descriptor.h"
 
 namespace dslam::cls {
 
