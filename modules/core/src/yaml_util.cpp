@@ -1,6 +1,11 @@
 #include "dslam/core/yaml_util.h"
 
 #include <algorithm>
+#include <cmath>
+
+#include "dslam/core/error.h"
+
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -117,6 +122,110 @@ std::string toYamlText(const mrpt::containers::yaml& y) {
   eo.emitHeader = false;
   y.printAsYAML(o, eo);
   return o.str();
+}
+
+// ------------------------------------------------------------ TypedReader
+
+void TypedReader::fail(const At& at, const std::string& msg) const {
+  std::string f = file_for_ ? file_for_(at.path) : std::string();
+  std::string where = f;
+  if (at.n) where += ":" + std::to_string(at.n->marks.line + 1);
+  throw ConfigError(where + ": " + (at.path.empty() ? std::string() : "'" + at.path + "': ") + msg);
+}
+
+void TypedReader::requireMap(const At& m) const {
+  if (!m.n->isMap()) fail(m, "expected a map, got " + describe(*m.n));
+}
+
+void TypedReader::checkKeys(const At& m, const std::vector<std::string>& allowed) const {
+  requireMap(m);
+  for (const auto& kv : m.n->asMap()) {
+    const std::string k = scalarText(kv.first).value_or("");
+    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
+      fail(At{&kv.first, join(m.path, k)},
+           "unknown key '" + k + "'" + didYouMean(k, allowed) + " (valid keys: " + yamlu::join(allowed) + ")");
+  }
+}
+
+std::optional<At> TypedReader::child(const At& m, const std::string& key) const {
+  const node_t* v = findValue(*m.n, key);
+  if (!v || v->isNullNode()) return std::nullopt;
+  return At{v, join(m.path, key)};
+}
+At TypedReader::required(const At& m, const std::string& key) const {
+  auto c = child(m, key);
+  if (!c) fail(m, "missing required key '" + key + "'");
+  return *c;
+}
+
+double TypedReader::num(const At& v) const {
+  auto t = scalarText(*v.n);
+  auto d = t ? parseDouble(*t) : std::nullopt;
+  if (!d || !std::isfinite(*d)) fail(v, "expected a number, got " + describe(*v.n));
+  return *d;
+}
+double TypedReader::num(const At& m, const std::string& key, double def) const {
+  auto c = child(m, key);
+  return c ? num(*c) : def;
+}
+double TypedReader::positive(const At& m, const std::string& key, double def, bool allow_zero) const {
+  auto c = child(m, key);
+  if (!c) return def;
+  const double v = num(*c);
+  if (v < 0 || (!allow_zero && v == 0)) fail(*c, allow_zero ? "must be >= 0" : "must be > 0");
+  return v;
+}
+long long TypedReader::integer(const At& v) const {
+  auto t = scalarText(*v.n);
+  auto d = t ? parseInt(*t) : std::nullopt;
+  if (!d) fail(v, "expected an integer, got " + describe(*v.n));
+  return *d;
+}
+long long TypedReader::integer(const At& m, const std::string& key, long long def) const {
+  auto c = child(m, key);
+  return c ? integer(*c) : def;
+}
+bool TypedReader::boolean(const At& m, const std::string& key, bool def) const {
+  auto c = child(m, key);
+  if (!c) return def;
+  auto t = scalarText(*c->n);
+  auto b = t ? parseBool(*t) : std::nullopt;
+  if (!b) fail(*c, "expected true/false, got " + describe(*c->n));
+  return *b;
+}
+std::string TypedReader::str(const At& v) const {
+  auto t = scalarText(*v.n);
+  if (!t) fail(v, "expected a text value, got " + describe(*v.n));
+  return *t;
+}
+std::string TypedReader::str(const At& m, const std::string& key, const std::string& def) const {
+  auto c = child(m, key);
+  return c ? str(*c) : def;
+}
+std::string TypedReader::oneOf(const At& m, const std::string& key, const std::string& def,
+                  const std::vector<std::string>& valid, const std::string& what) const {
+  auto c = child(m, key);
+  if (!c) return def;
+  const std::string s = str(*c);
+  if (std::find(valid.begin(), valid.end(), s) == valid.end())
+    fail(*c, "unknown " + what + " '" + s + "'" + didYouMean(s, valid) + " (valid: " + yamlu::join(valid) + ")");
+  return s;
+}
+std::vector<At> TypedReader::list(const At& v) const {
+  if (!v.n->isSequence()) fail(v, "expected a list, got " + describe(*v.n));
+  std::vector<At> out;
+  size_t i = 0;
+  for (const auto& e : v.n->asSequence()) out.push_back(At{&e, v.path + "[" + std::to_string(i++) + "]"});
+  return out;
+}
+std::vector<double> TypedReader::numbers(const At& v, size_t min_n, size_t max_n) const {
+  auto l = list(v);
+  if (l.size() < min_n || l.size() > max_n)
+    fail(v, "expected " + (min_n == max_n ? std::to_string(min_n) : std::to_string(min_n) + " to " + std::to_string(max_n)) +
+                " numbers, got " + std::to_string(l.size()));
+  std::vector<double> out;
+  for (auto& e : l) out.push_back(num(e));
+  return out;
 }
 
 }  // namespace dslam::yamlu

@@ -39,119 +39,15 @@ constexpr double kDeg = M_PI / 180.0;
 const std::vector<std::string> kObjectTypes = {"box",   "cylinder", "sphere", "quad",
                                                "table", "chair",    "shelf",  "monitor", "plant"};
 
-/** A YAML node with its key path, for messages. */
-struct N {
-  const node_t* n;
-  std::string path;
-};
+using N = yamlu::At;
 
-class Reader {
+/** The typed reader of dslam's YAML files (core/yaml_util.h) with the
+ *  scenario's own value types. */
+class Reader : public yamlu::TypedReader {
  public:
-  explicit Reader(const config::LoadedYaml& ly) : ly_(ly) {}
+  explicit Reader(const config::LoadedYaml& ly)
+      : yamlu::TypedReader([&ly](const std::string& key_path) { return ly.fileFor(key_path); }) {}
 
-  [[noreturn]] void fail(const N& at, const std::string& msg) const {
-    std::string f = ly_.fileFor(at.path);
-    std::string where = f;
-    if (at.n) where += ":" + std::to_string(at.n->marks.line + 1);
-    throw ConfigError(where + ": " + (at.path.empty() ? std::string() : "'" + at.path + "': ") + msg);
-  }
-
-  void requireMap(const N& m) const {
-    if (!m.n->isMap()) fail(m, "expected a map, got " + yamlu::describe(*m.n));
-  }
-
-  void checkKeys(const N& m, const std::vector<std::string>& allowed) const {
-    requireMap(m);
-    for (const auto& kv : m.n->asMap()) {
-      const std::string k = yamlu::scalarText(kv.first).value_or("");
-      if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
-        fail(N{&kv.first, join(m.path, k)},
-             "unknown key '" + k + "'" + yamlu::didYouMean(k, allowed) + " (valid keys: " + yamlu::join(allowed) + ")");
-    }
-  }
-
-  static std::string join(const std::string& p, const std::string& k) { return p.empty() ? k : p + "." + k; }
-
-  std::optional<N> child(const N& m, const std::string& key) const {
-    const node_t* v = yamlu::findValue(*m.n, key);
-    if (!v || v->isNullNode()) return std::nullopt;
-    return N{v, join(m.path, key)};
-  }
-  N required(const N& m, const std::string& key) const {
-    auto c = child(m, key);
-    if (!c) fail(m, "missing required key '" + key + "'");
-    return *c;
-  }
-
-  double num(const N& v) const {
-    auto t = yamlu::scalarText(*v.n);
-    auto d = t ? yamlu::parseDouble(*t) : std::nullopt;
-    if (!d || !std::isfinite(*d)) fail(v, "expected a number, got " + yamlu::describe(*v.n));
-    return *d;
-  }
-  double num(const N& m, const std::string& key, double def) const {
-    auto c = child(m, key);
-    return c ? num(*c) : def;
-  }
-  double positive(const N& m, const std::string& key, double def, bool allow_zero = false) const {
-    auto c = child(m, key);
-    if (!c) return def;
-    const double v = num(*c);
-    if (v < 0 || (!allow_zero && v == 0)) fail(*c, allow_zero ? "must be >= 0" : "must be > 0");
-    return v;
-  }
-  long long integer(const N& v) const {
-    auto t = yamlu::scalarText(*v.n);
-    auto d = t ? yamlu::parseInt(*t) : std::nullopt;
-    if (!d) fail(v, "expected an integer, got " + yamlu::describe(*v.n));
-    return *d;
-  }
-  long long integer(const N& m, const std::string& key, long long def) const {
-    auto c = child(m, key);
-    return c ? integer(*c) : def;
-  }
-  bool boolean(const N& m, const std::string& key, bool def) const {
-    auto c = child(m, key);
-    if (!c) return def;
-    auto t = yamlu::scalarText(*c->n);
-    auto b = t ? yamlu::parseBool(*t) : std::nullopt;
-    if (!b) fail(*c, "expected true/false, got " + yamlu::describe(*c->n));
-    return *b;
-  }
-  std::string str(const N& v) const {
-    auto t = yamlu::scalarText(*v.n);
-    if (!t) fail(v, "expected a text value, got " + yamlu::describe(*v.n));
-    return *t;
-  }
-  std::string str(const N& m, const std::string& key, const std::string& def) const {
-    auto c = child(m, key);
-    return c ? str(*c) : def;
-  }
-  std::string oneOf(const N& m, const std::string& key, const std::string& def,
-                    const std::vector<std::string>& valid, const std::string& what) const {
-    auto c = child(m, key);
-    if (!c) return def;
-    const std::string s = str(*c);
-    if (std::find(valid.begin(), valid.end(), s) == valid.end())
-      fail(*c, "unknown " + what + " '" + s + "'" + yamlu::didYouMean(s, valid) + " (valid: " + yamlu::join(valid) + ")");
-    return s;
-  }
-  std::vector<N> list(const N& v) const {
-    if (!v.n->isSequence()) fail(v, "expected a list, got " + yamlu::describe(*v.n));
-    std::vector<N> out;
-    size_t i = 0;
-    for (const auto& e : v.n->asSequence()) out.push_back(N{&e, v.path + "[" + std::to_string(i++) + "]"});
-    return out;
-  }
-  std::vector<double> numbers(const N& v, size_t min_n, size_t max_n) const {
-    auto l = list(v);
-    if (l.size() < min_n || l.size() > max_n)
-      fail(v, "expected " + (min_n == max_n ? std::to_string(min_n) : std::to_string(min_n) + " to " + std::to_string(max_n)) +
-                  " numbers, got " + std::to_string(l.size()));
-    std::vector<double> out;
-    for (auto& e : l) out.push_back(num(e));
-    return out;
-  }
   Vec3 vec3(const N& v, bool allow2 = false, double z_default = 0) const {
     auto d = numbers(v, allow2 ? 2 : 3, 3);
     return {d[0], d[1], d.size() > 2 ? d[2] : z_default};
@@ -194,8 +90,6 @@ class Reader {
     return p;
   }
 
- private:
-  const config::LoadedYaml& ly_;
 };
 
 TextureSpec tex(const char* kind, Vec3 c = {0.8, 0.8, 0.8}) {

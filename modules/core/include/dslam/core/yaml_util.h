@@ -4,6 +4,7 @@
  *  scalar as text). Include only in .cpp files: it pulls in MRPT's yaml. */
 #include <mrpt/containers/yaml.h>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,5 +32,50 @@ std::string didYouMean(const std::string& key, const std::vector<std::string>& v
 std::string join(const std::vector<std::string>& v, const std::string& sep = ", ");
 /** Emits a node as YAML text (flow style for short scalar sequences). */
 std::string toYamlText(const mrpt::containers::yaml& y);
+
+/** A node of a file with its key path ("objects[2].size"), for messages. */
+struct At {
+  const node_t* n;
+  std::string path;
+};
+
+/** Typed, strict access to a YAML tree with "file:line: 'key.path': what"
+ *  errors (ConfigError): the accessor of dslam's hand-structured YAML files
+ *  (scenarios). Plug-in parameters go through dslam::Params, which shares the
+ *  scalar parsers above. `file_for` maps a key path to the file it came from
+ *  (config::LoadedYaml::fileFor, for $include{}d parts). */
+class TypedReader {
+ public:
+  explicit TypedReader(std::function<std::string(const std::string&)> file_for) : file_for_(std::move(file_for)) {}
+  virtual ~TypedReader() = default;
+
+  [[noreturn]] void fail(const At& at, const std::string& msg) const;
+  void requireMap(const At& m) const;
+  /** Every key of map `m` must be in `allowed` (with a "did you mean"). */
+  void checkKeys(const At& m, const std::vector<std::string>& allowed) const;
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
+  /** m[key], nullopt when missing or null. */
+  std::optional<At> child(const At& m, const std::string& key) const;
+  At required(const At& m, const std::string& key) const;
+  double num(const At& v) const;
+  double num(const At& m, const std::string& key, double def) const;
+  /** > 0 (>= 0 with allow_zero). */
+  double positive(const At& m, const std::string& key, double def, bool allow_zero = false) const;
+  long long integer(const At& v) const;
+  long long integer(const At& m, const std::string& key, long long def) const;
+  bool boolean(const At& m, const std::string& key, bool def) const;
+  std::string str(const At& v) const;
+  std::string str(const At& m, const std::string& key, const std::string& def) const;
+  std::string oneOf(const At& m, const std::string& key, const std::string& def, const std::vector<std::string>& valid,
+                    const std::string& what) const;
+  std::vector<At> list(const At& v) const;
+  /** A list of min_n..max_n numbers. */
+  std::vector<double> numbers(const At& v, size_t min_n, size_t max_n) const;
+
+ private:
+  std::function<std::string(const std::string&)> file_for_;
+};
 
 }  // namespace dslam::yamlu
