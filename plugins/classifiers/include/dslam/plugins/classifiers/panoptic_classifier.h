@@ -68,6 +68,21 @@ class PanopticClassifier : public KeypointClassifier {
   };
   std::map<int, SegStat> seg_stats_;
   int next_track_ = 1;
+
+  struct Work;  ///< one frame's intermediate results (panoptic_classifier.cpp)
+  /** Area and bbox of the current thing segments. */
+  static std::map<int, SegStat> thingStats(const Detections& det);
+  /** Short-term data association of the things with the previous frame's
+   *  (mask IoU): current segment -> track id, and which tracks are new. */
+  void associate(Work& w, const Detections& det) const;
+  /** class ids, object ids and the person prior; keypoint sets per region. */
+  void labelAndGroup(Frame& frame, Work& w) const;
+  /** The previous frame's stuff / unknown / thing keypoints. */
+  void groupPrevious(const Frame& frame, Work& w) const;
+  /** Fundamental matrix from stuff matches. */
+  void fitStuff(const Frame& frame, Work& w);
+  void classifyThings(Frame& frame, Work& w);
+  void classifyUnknown(Frame& frame, Work& w);
 };
 
 }  // namespace dslam
