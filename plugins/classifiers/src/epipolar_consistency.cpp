@@ -43,7 +43,130 @@ struct EpipolarConsistency::Impl {
     }
     cv::buildOpticalFlowPyramid(gray, out, cv::Size(win, win), levels);
   }
+
+  /** Which keypoints fit the fundamental matrix and which are tested. */
+  struct Sets {
+    std::vector<int> fit, test, need;  ///< need = fit U test (sorted)
+    std::vector<char> unknown;         ///< per keypoint: on an unknown / void region
+  };
+  Sets regions(const Frame& frame, const Detections& det, const CameraModel* cam) const;
+  /** Previous-frame (undistorted) pixel per needed keypoint by LK flow (DS-SLAM checks). */
+  void flowMatches(const Frame& frame, const Frame& prev, const std::vector<cv::Mat>& cur_pyr,
+                   const std::vector<int>& need, const CameraModel* cam, std::vector<cv::Point2f>& prev_un,
+                   std::vector<char>& have);
+  /** The same by ORB descriptor matches with the previous frame's keypoints. */
+  void descriptorMatches(const Frame& frame, const Frame& prev, const std::vector<int>& need, const CameraModel* cam,
+                         std::vector<cv::Point2f>& prev_un, std::vector<char>& have) const;
 };
+
+EpipolarConsistency::Impl::Sets EpipolarConsistency::Impl::regions(const Frame& frame, const Detections& det,
+                                                                   const CameraModel* cam) const {
+  const size_t n = frame.size();
+  const bool use_det = det.valid;
+  const cv::Size ref = cls::imageSize(frame, cam);
+  const cls::KeypointRegions pan =
+      use_det ? cls::panopticRegions(frame.keypoints, det, ref) : cls::panopticRegions({}, Detections{}, ref);
+  const bool have_pan = use_det && !det.panoptic.empty();
+  const bool have_sem = use_det && !det.semantic.empty() && det.semantic.type() == CV_8U;
+  const cls::PixelLookup sem(have_sem ? det.semantic : cv::Mat(), ref);
+  Sets out;
+  std::vector<char> excl(n, 0), apply_to(n, 0);
+  out.unknown.assign(n, 0);
+  for (size_t i = 0; i < n; i++) {
+    const cv::Point2f& pt = frame.keypoints[i].pt;
+    bool in_box = false;
+    if (use_det)
+      for (const auto& b : det.boxes) {
+        if (b.score < min_score || !cls::inBox(pt, b.box)) continue;
+        in_box = true;
+        if (cls::contains(exclude, b.class_id)) excl[i] = 1;
+      }
+    int sem_c = -1;
+    if (have_sem)
+      if (auto q = sem.pixel(pt)) {
+        sem_c = det.semantic.at<uint8_t>(*q);
+        if (sem_c == coco::kNone) sem_c = -1;
+      }
+    if (sem_c >= 0 && cls::contains(exclude, sem_c)) excl[i] = 1;
+    if (have_pan && pan.region[i] == cls::Region::Thing && cls::contains(exclude, pan.category[i])) excl[i] = 1;
+    out.unknown[i] = have_pan ? pan.region[i] == cls::Region::Unknown : (have_sem && sem_c < 0);
+    switch (apply) {
+      case Apply::All: apply_to[i] = 1; break;
+      case Apply::Boxes: apply_to[i] = in_box; break;
+      case Apply::Unknown: apply_to[i] = out.unknown[i]; break;
+      case Apply::Things:
+        apply_to[i] = have_pan ? pan.region[i] == cls::Region::Thing
+                      : have_sem ? (sem_c >= 0 && coco::isThing(sem_c))
+                                 : in_box;
+        break;
+    }
+  }
+  for (size_t i = 0; i < n; i++) {
+    if (frame.meta[i].label == KpLabel::Dynamic) continue;
+    if (!excl[i] && (apply == Apply::All || !apply_to[i])) out.fit.push_back(static_cast<int>(i));
+    if (apply_to[i]) out.test.push_back(static_cast<int>(i));
+  }
+  // Flow: only the subsampled fit candidates are tracked (LK is the cost). Descriptor matches are subsampled
+  // after matching (fitFundamental), most candidates find no match.
+  if (flow) out.fit = cls::evenSubset(out.fit, ransac.max_points);
+  std::set_union(out.fit.begin(), out.fit.end(), out.test.begin(), out.test.end(), std::back_inserter(out.need));
+  return out;
+}
+
+void EpipolarConsistency::Impl::flowMatches(const Frame& frame, const Frame& prev, const std::vector<cv::Mat>& cur_pyr,
+                                            const std::vector<int>& need, const CameraModel* cam,
+                                            std::vector<cv::Point2f>& prev_un, std::vector<char>& have) {
+  std::vector<cv::Mat> prev_pyr;
+  pyramid(prev.gray, prev.index(), prev.timestamp(), prev_pyr);
+  std::vector<cv::Point2f> from, to;
+  from.reserve(need.size());
+  for (int i : need) from.push_back(frame.keypoints[i].pt);
+  std::vector<uchar> status;
+  std::vector<float> err;
+  cv::calcOpticalFlowPyrLK(cur_pyr, prev_pyr, from, to, status, err, cv::Size(win, win), levels,
+                           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, iters, eps));
+  const cv::Mat& g1 = frame.gray;
+  const cv::Mat& g0 = prev.gray;
+  for (size_t k = 0; k < need.size(); k++) {
+    if (!status[k]) continue;
+    // DS-SLAM: integer pixel positions, border margin, 3x3 patch difference.
+    const int x2 = static_cast<int>(from[k].x), y2 = static_cast<int>(from[k].y);
+    const int x1 = static_cast<int>(to[k].x), y1 = static_cast<int>(to[k].y);
+    const int e = std::max(edge, 1);
+    if (to[k].x < 0 || to[k].y < 0 || x1 < e || y1 < e || x2 < e || y2 < e || x1 >= g0.cols - e ||
+        y1 >= g0.rows - e || x2 >= g1.cols - e || y2 >= g1.rows - e)
+      continue;
+    if (patch_check > 0) {
+      double sum = 0;
+      for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++)
+          sum += std::abs(static_cast<int>(g0.at<uint8_t>(y1 + dy, x1 + dx)) -
+                          static_cast<int>(g1.at<uint8_t>(y2 + dy, x2 + dx)));
+      if (sum > patch_check) continue;
+    }
+    prev_un[need[k]] = cls::undistortPixel(to[k], cam);
+    have[need[k]] = 1;
+  }
+}
+
+void EpipolarConsistency::Impl::descriptorMatches(const Frame& frame, const Frame& prev, const std::vector<int>& need,
+                                                  const CameraModel* cam, std::vector<cv::Point2f>& prev_un,
+                                                  std::vector<char>& have) const {
+  if (frame.descriptors.rows != static_cast<int>(frame.size()) || prev.descriptors.rows != static_cast<int>(prev.size()))
+    throw DataError("frame " + std::to_string(frame.index()) +
+                    ": descriptor matching needs one descriptor row per keypoint (current and previous frame)");
+  std::vector<int> cand;
+  const bool pm = prev.meta.size() == prev.size();
+  for (size_t j = 0; j < prev.size(); j++)
+    if (!pm || prev.meta[j].label != KpLabel::Dynamic) cand.push_back(static_cast<int>(j));
+  const std::vector<int> m =
+      cls::matchDescriptors(frame.keypoints, frame.descriptors, need, prev.keypoints, prev.descriptors, cand, match);
+  for (size_t k = 0; k < need.size(); k++)
+    if (m[k] >= 0) {
+      prev_un[need[k]] = cls::undistorted(prev, static_cast<size_t>(m[k]), cam);
+      have[need[k]] = 1;
+    }
+}
 
 std::string EpipolarConsistency::description() const {
   return "moving consistency check: keypoints off the static scene's epipolar lines (LK flow or ORB matches, "
@@ -143,109 +266,19 @@ void EpipolarConsistency::classify(Frame& frame, const Detections& det, const Cl
   if (!prev || n == 0 || (prev->keypoints.empty() && !im.flow)) return;
   if (im.flow && (prev->gray.empty() || cur_pyr.empty() || prev->gray.size() != frame.gray.size())) return;
 
-  // ---- regions
-  const bool use_det = det.valid;
-  const cv::Size ref = cls::imageSize(frame, cam);
-  const cls::KeypointRegions pan =
-      use_det ? cls::panopticRegions(frame.keypoints, det, ref) : cls::panopticRegions({}, Detections{}, ref);
-  const bool have_pan = use_det && !det.panoptic.empty();
-  const bool have_sem = use_det && !det.semantic.empty() && det.semantic.type() == CV_8U;
-  const cls::PixelLookup sem(have_sem ? det.semantic : cv::Mat(), ref);
-  std::vector<char> excl(n, 0), apply(n, 0), unknown(n, 0);
-  for (size_t i = 0; i < n; i++) {
-    const cv::Point2f& pt = frame.keypoints[i].pt;
-    bool in_box = false;
-    if (use_det)
-      for (const auto& b : det.boxes) {
-        if (b.score < im.min_score || !cls::inBox(pt, b.box)) continue;
-        in_box = true;
-        if (cls::contains(im.exclude, b.class_id)) excl[i] = 1;
-      }
-    int sem_c = -1;
-    if (have_sem)
-      if (auto q = sem.pixel(pt)) {
-        sem_c = det.semantic.at<uint8_t>(*q);
-        if (sem_c == coco::kNone) sem_c = -1;
-      }
-    if (sem_c >= 0 && cls::contains(im.exclude, sem_c)) excl[i] = 1;
-    if (have_pan && pan.region[i] == cls::Region::Thing && cls::contains(im.exclude, pan.category[i])) excl[i] = 1;
-    unknown[i] = have_pan ? pan.region[i] == cls::Region::Unknown : (have_sem && sem_c < 0);
-    switch (im.apply) {
-      case Impl::Apply::All: apply[i] = 1; break;
-      case Impl::Apply::Boxes: apply[i] = in_box; break;
-      case Impl::Apply::Unknown: apply[i] = unknown[i]; break;
-      case Impl::Apply::Things:
-        apply[i] = have_pan ? pan.region[i] == cls::Region::Thing
-                   : have_sem ? (sem_c >= 0 && coco::isThing(sem_c))
-                              : in_box;
-        break;
-    }
-  }
-  std::vector<int> fit, test;
-  for (size_t i = 0; i < n; i++) {
-    if (frame.meta[i].label == KpLabel::Dynamic) continue;
-    if (!excl[i] && (im.apply == Impl::Apply::All || !apply[i])) fit.push_back(static_cast<int>(i));
-    if (apply[i]) test.push_back(static_cast<int>(i));
-  }
-  // Flow: only the subsampled fit candidates are tracked (LK is the cost). Descriptor matches are subsampled
-  // after matching (fitFundamental), most candidates find no match.
-  if (im.flow) fit = cls::evenSubset(fit, im.ransac.max_points);
-  std::vector<int> need;
-  std::set_union(fit.begin(), fit.end(), test.begin(), test.end(), std::back_inserter(need));
+  const Impl::Sets sets = im.regions(frame, det, cam);
+  const std::vector<int>& fit = sets.fit;
+  const std::vector<int>& test = sets.test;
   stats_.tested = static_cast<int>(test.size());
   if (test.empty()) return;
 
   // ---- correspondences: previous (undistorted) pixel per needed keypoint
   std::vector<cv::Point2f> prev_un(n);
   std::vector<char> have(n, 0);
-  if (im.flow) {
-    std::vector<cv::Mat> prev_pyr;
-    im.pyramid(prev->gray, prev->index(), prev->timestamp(), prev_pyr);
-    std::vector<cv::Point2f> from, to;
-    from.reserve(need.size());
-    for (int i : need) from.push_back(frame.keypoints[i].pt);
-    std::vector<uchar> status;
-    std::vector<float> err;
-    cv::calcOpticalFlowPyrLK(cur_pyr, prev_pyr, from, to, status, err, cv::Size(im.win, im.win), im.levels,
-                             cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, im.iters, im.eps));
-    const cv::Mat& g1 = frame.gray;
-    const cv::Mat& g0 = prev->gray;
-    for (size_t k = 0; k < need.size(); k++) {
-      if (!status[k]) continue;
-      // DS-SLAM: integer pixel positions, border margin, 3x3 patch difference.
-      const int x2 = static_cast<int>(from[k].x), y2 = static_cast<int>(from[k].y);
-      const int x1 = static_cast<int>(to[k].x), y1 = static_cast<int>(to[k].y);
-      const int e = std::max(im.edge, 1);
-      if (to[k].x < 0 || to[k].y < 0 || x1 < e || y1 < e || x2 < e || y2 < e || x1 >= g0.cols - e ||
-          y1 >= g0.rows - e || x2 >= g1.cols - e || y2 >= g1.rows - e)
-        continue;
-      if (im.patch_check > 0) {
-        double sum = 0;
-        for (int dy = -1; dy <= 1; dy++)
-          for (int dx = -1; dx <= 1; dx++)
-            sum += std::abs(static_cast<int>(g0.at<uint8_t>(y1 + dy, x1 + dx)) -
-                            static_cast<int>(g1.at<uint8_t>(y2 + dy, x2 + dx)));
-        if (sum > im.patch_check) continue;
-      }
-      prev_un[need[k]] = cls::undistortPixel(to[k], cam);
-      have[need[k]] = 1;
-    }
-  } else {
-    if (frame.descriptors.rows != static_cast<int>(n) || prev->descriptors.rows != static_cast<int>(prev->size()))
-      throw DataError("frame " + std::to_string(frame.index()) +
-                      ": descriptor matching needs one descriptor row per keypoint (current and previous frame)");
-    std::vector<int> cand;
-    const bool pm = prev->meta.size() == prev->size();
-    for (size_t j = 0; j < prev->size(); j++)
-      if (!pm || prev->meta[j].label != KpLabel::Dynamic) cand.push_back(static_cast<int>(j));
-    const std::vector<int> m =
-        cls::matchDescriptors(frame.keypoints, frame.descriptors, need, prev->keypoints, prev->descriptors, cand, im.match);
-    for (size_t k = 0; k < need.size(); k++)
-      if (m[k] >= 0) {
-        prev_un[need[k]] = cls::undistorted(*prev, static_cast<size_t>(m[k]), cam);
-        have[need[k]] = 1;
-      }
-  }
+  if (im.flow)
+    im.flowMatches(frame, *prev, cur_pyr, sets.need, cam, prev_un, have);
+  else
+    im.descriptorMatches(frame, *prev, sets.need, cam, prev_un, have);
 
   // ---- fundamental matrix from the fit set
   std::vector<cv::Point2f> p0, p1;
@@ -269,7 +302,7 @@ void EpipolarConsistency::classify(Frame& frame, const Detections& det, const Cl
   for (int i : test) {
     KeypointMeta& m = frame.meta[i];
     if (!have[i]) {
-      if (im.drop_unmatched && unknown[i]) {
+      if (im.drop_unmatched && sets.unknown[i]) {
         cls::raise(m, KpLabel::Dynamic, KpReason::UnmatchedUnknown);
         stats_.unmatched_dropped++;
       }
