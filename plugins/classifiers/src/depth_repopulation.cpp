@@ -92,6 +92,70 @@ Summary summarize(std::vector<float>& v, double pct) {
 
 inline bool validDepth(float d) { return d > 0 && std::isfinite(d); }
 
+/** Keypoint depth: Frame::depth, else the depth image at the keypoint. */
+float keypointDepth(const Frame& frame, size_t i) {
+  if (i < frame.depth.size() && validDepth(frame.depth[i])) return frame.depth[i];
+  const cv::Mat& depth = frame.input.depth;
+  if (!depth.empty()) {
+    const int x = static_cast<int>(std::lround(frame.keypoints[i].pt.x));
+    const int y = static_cast<int>(std::lround(frame.keypoints[i].pt.y));
+    if (x >= 0 && y >= 0 && x < depth.cols && y < depth.rows) {
+      const float d = depth.at<float>(y, x);
+      if (validDepth(d)) return d;
+    }
+  }
+  return 0.f;
+}
+
+bool inAny(const std::vector<cv::Rect2f>& rects, float x, float y) {
+  for (const auto& s : rects)
+    if (x >= s.x && y >= s.y && x < s.x + s.width && y < s.y + s.height) return true;
+  return false;
+}
+
+cv::Rect pixelRect(const cv::Rect2f& r, const cv::Mat& img) {
+  return cv::Rect(cv::Point(static_cast<int>(std::floor(r.x)), static_cast<int>(std::floor(r.y))),
+                  cv::Point(static_cast<int>(std::ceil(r.x + r.width)), static_cast<int>(std::ceil(r.y + r.height)))) &
+         cv::Rect(0, 0, img.cols, img.rows);
+}
+
+/** Depth samples of a box (every `stride`-th pixel, outside the `shared`
+ *  overlaps) into `buf` and of its central window (every pixel) into
+ *  `cbuf`; without a depth image, the depths of the keypoints inside. */
+void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f& center,
+                     const std::vector<cv::Rect2f>& shared, int stride, std::vector<float>& buf,
+                     std::vector<float>& cbuf) {
+  buf.clear();
+  cbuf.clear();
+  const cv::Mat& depth = frame.input.depth;
+  if (depth.empty()) {
+    for (size_t i = 0; i < frame.size(); i++) {
+      const cv::Point2f& pt = frame.keypoints[i].pt;
+      if (!cls::inBox(pt, box)) continue;
+      const float d = keypointDepth(frame, i);
+      if (!validDepth(d)) continue;
+      if (!inAny(shared, pt.x, pt.y)) buf.push_back(d);
+      if (cls::inBox(pt, center)) cbuf.push_back(d);
+    }
+    return;
+  }
+  const cv::Rect r = pixelRect(box, depth), rc = pixelRect(center, depth);
+  for (int y = r.y; y < r.y + r.height; y += stride) {
+    const float* row = depth.ptr<float>(y);
+    for (int x = r.x; x < r.x + r.width; x += stride) {
+      const float d = row[x];
+      if (!validDepth(d)) continue;
+      if (!shared.empty() && inAny(shared, static_cast<float>(x), static_cast<float>(y))) continue;
+      buf.push_back(d);
+    }
+  }
+  for (int y = rc.y; y < rc.y + rc.height; y++) {  // central window: every pixel
+    const float* row = depth.ptr<float>(y);
+    for (int x = rc.x; x < rc.x + rc.width; x++)
+      if (validDepth(row[x])) cbuf.push_back(row[x]);
+  }
+}
+
 }  // namespace
 
 void DepthRepopulation::classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) {
@@ -112,20 +176,6 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     sel.push_back(static_cast<int>(b));
   }
   if (sel.empty()) return;
-
-  // Keypoint depth: Frame::depth, else the depth image at the keypoint.
-  auto kpDepth = [&](size_t i) -> float {
-    if (i < frame.depth.size() && validDepth(frame.depth[i])) return frame.depth[i];
-    if (!depth.empty()) {
-      const int x = static_cast<int>(std::lround(frame.keypoints[i].pt.x));
-      const int y = static_cast<int>(std::lround(frame.keypoints[i].pt.y));
-      if (x >= 0 && y >= 0 && x < depth.cols && y < depth.rows) {
-        const float d = depth.at<float>(y, x);
-        if (validDepth(d)) return d;
-      }
-    }
-    return 0.f;
-  };
 
   // Decided label per keypoint (max over the boxes containing it).
   std::vector<int8_t> decided(frame.size(), -1);
@@ -152,51 +202,10 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
           const cv::Rect2f x = box & det.boxes[o].box;
           if (x.width > 0 && x.height > 0) shared.push_back(x);
         }
-    auto isShared = [&](float x, float y) {
-      for (const auto& s : shared)
-        if (x >= s.x && y >= s.y && x < s.x + s.width && y < s.y + s.height) return true;
-      return false;
-    };
     const float cw = box.width * static_cast<float>(center_fraction_),
                 ch = box.height * static_cast<float>(center_fraction_);
     const cv::Rect2f center(box.x + 0.5f * (box.width - cw), box.y + 0.5f * (box.height - ch), cw, ch);
-
-    buf_.clear();
-    cbuf_.clear();
-    if (!depth.empty()) {
-      const cv::Rect r = cv::Rect(cv::Point(static_cast<int>(std::floor(box.x)), static_cast<int>(std::floor(box.y))),
-                                  cv::Point(static_cast<int>(std::ceil(box.x + box.width)),
-                                            static_cast<int>(std::ceil(box.y + box.height)))) &
-                         cv::Rect(0, 0, depth.cols, depth.rows);
-      const cv::Rect rc =
-          cv::Rect(cv::Point(static_cast<int>(std::floor(center.x)), static_cast<int>(std::floor(center.y))),
-                   cv::Point(static_cast<int>(std::ceil(center.x + center.width)),
-                             static_cast<int>(std::ceil(center.y + center.height)))) &
-          cv::Rect(0, 0, depth.cols, depth.rows);
-      for (int y = r.y; y < r.y + r.height; y += stride_) {
-        const float* row = depth.ptr<float>(y);
-        for (int x = r.x; x < r.x + r.width; x += stride_) {
-          const float d = row[x];
-          if (!validDepth(d)) continue;
-          if (!shared.empty() && isShared(static_cast<float>(x), static_cast<float>(y))) continue;
-          buf_.push_back(d);
-        }
-      }
-      for (int y = rc.y; y < rc.y + rc.height; y++) {  // central window: every pixel
-        const float* row = depth.ptr<float>(y);
-        for (int x = rc.x; x < rc.x + rc.width; x++)
-          if (validDepth(row[x])) cbuf_.push_back(row[x]);
-      }
-    } else {  // no depth image: keypoint depths
-      for (size_t i = 0; i < frame.size(); i++) {
-        const cv::Point2f& pt = frame.keypoints[i].pt;
-        if (!cls::inBox(pt, box)) continue;
-        const float d = kpDepth(i);
-        if (!validDepth(d)) continue;
-        if (!isShared(pt.x, pt.y)) buf_.push_back(d);
-        if (cls::inBox(pt, center)) cbuf_.push_back(d);
-      }
-    }
+    sampleBoxDepths(frame, box, center, shared, stride_, buf_, cbuf_);
 
     BoxDepthStats st;
     st.box = b;
@@ -224,7 +233,7 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
         decide(i, KpLabel::Dynamic, KpReason::Occluded, bb.class_id);
         continue;
       }
-      const float d = kpDepth(i);
+      const float d = keypointDepth(frame, i);
       if (enough && validDepth(d) && d > st.object_depth + st.margin)
         decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // behind: not on the class
       else
