@@ -44,17 +44,23 @@ double hashUniform(uint64_t seed, int64_t frame, int64_t object, uint64_t salt) 
   return double(h >> 11) * (1.0 / 9007199254740992.0);  // 2^-53
 }
 
-Detections degrade(const Detections& truth, const Degradation& d, uint64_t seed, int64_t frame, cv::Size image) {
-  Detections out = truth;
-  out.boxes.clear();
-  out.segments.clear();
-  std::vector<int> swap_to = d.swap_classes;
-  if (swap_to.empty())
-    for (int i = 0; i < 80; i++) swap_to.push_back(coco::cocoIdFromIndex80(i));
+namespace {
 
-  auto missed = [&](int64_t key) { return d.miss_rate > 0 && hashUniform(seed, frame, key, kMiss) < d.miss_rate; };
-  // New class of an object, or -1 if not swapped.
-  auto swapped = [&](int64_t key, int old_class) -> int {
+/** One frame's degradation (degrade()): the steps share the inputs, the
+ *  output and whether the semantic image was copied yet. */
+struct Degrader {
+  const Detections& truth;
+  const Degradation& d;
+  uint64_t seed;
+  int64_t frame;
+  cv::Size image;
+  std::vector<int> swap_to;
+  Detections out;
+  bool have_pan = false, sem_cloned = false;
+
+  bool missed(int64_t key) const { return d.miss_rate > 0 && hashUniform(seed, frame, key, kMiss) < d.miss_rate; }
+  /** New class of an object, or -1 if not swapped. */
+  int swapped(int64_t key, int old_class) const {
     if (d.swap_rate <= 0 || swap_to.empty() || hashUniform(seed, frame, key, kSwap) >= d.swap_rate) return -1;
     size_t k = size_t(hashUniform(seed, frame, key, kSwapTo) * double(swap_to.size())) % swap_to.size();
     if (swap_to[k] == old_class) {
@@ -62,30 +68,36 @@ Detections degrade(const Detections& truth, const Degradation& d, uint64_t seed,
       k = (k + 1) % swap_to.size();
     }
     return swap_to[k];
-  };
-  auto boxKey = [](const BoundingBox& b, size_t i) { return b.instance_id >= 0 ? int64_t(b.instance_id) : -int64_t(i) - 1; };
-
-  // --- panoptic segments: per segment action (keep / remove / new class)
-  std::map<int, int> seg_action;  // segment id -> 0 remove, >0 new class, absent = unchanged
-  for (const auto& s : truth.segments) {
-    PanopticSegment ns = s;
-    if (s.kind == SegmentKind::Thing && s.instance_id >= 0) {
-      if (missed(s.instance_id)) {
-        seg_action[s.id] = 0;
-        continue;
-      }
-      if (int c = swapped(s.instance_id, s.category_id); c > 0) {
-        seg_action[s.id] = c;
-        ns.category_id = c;
-        ns.kind = coco::isThing(c) ? SegmentKind::Thing : SegmentKind::Stuff;
-      }
-    }
-    out.segments.push_back(ns);
   }
-  const bool have_pan = !truth.panoptic.empty();
-  if (have_pan && !seg_action.empty()) {
+  void cloneSemantic() {
+    if (!sem_cloned) {
+      out.semantic = truth.semantic.clone();
+      sem_cloned = true;
+    }
+  }
+
+  /** Panoptic segments: per segment keep / remove / new class, pixels too. */
+  void segments() {
+    std::map<int, int> seg_action;  // segment id -> 0 remove, >0 new class, absent = unchanged
+    for (const auto& s : truth.segments) {
+      PanopticSegment ns = s;
+      if (s.kind == SegmentKind::Thing && s.instance_id >= 0) {
+        if (missed(s.instance_id)) {
+          seg_action[s.id] = 0;
+          continue;
+        }
+        if (int c = swapped(s.instance_id, s.category_id); c > 0) {
+          seg_action[s.id] = c;
+          ns.category_id = c;
+          ns.kind = coco::isThing(c) ? SegmentKind::Thing : SegmentKind::Stuff;
+        }
+      }
+      out.segments.push_back(ns);
+    }
+    if (!have_pan || seg_action.empty()) return;
     out.panoptic = truth.panoptic.clone();
     if (!truth.semantic.empty()) out.semantic = truth.semantic.clone();
+    sem_cloned = true;
     const bool sem = !out.semantic.empty() && out.semantic.size() == out.panoptic.size();
     for (int r = 0; r < out.panoptic.rows; r++) {
       int32_t* p = out.panoptic.ptr<int32_t>(r);
@@ -103,43 +115,43 @@ Detections degrade(const Detections& truth, const Degradation& d, uint64_t seed,
     }
   }
 
-  // --- boxes
-  bool sem_cloned = have_pan && !seg_action.empty();
-  auto semEdit = [&](const cv::Rect2f& box, int from, int to) {
+  void semEdit(const cv::Rect2f& box, int from, int to) {
     if (have_pan || truth.semantic.empty()) return;  // panoptic pixels already handled
-    if (!sem_cloned) {
-      out.semantic = truth.semantic.clone();
-      sem_cloned = true;
-    }
+    cloneSemantic();
     const cv::Rect r = cv::Rect(box) & cv::Rect(0, 0, out.semantic.cols, out.semantic.rows);
     cv::Mat roi = out.semantic(r);
     roi.setTo(cv::Scalar(to), roi == from);
-  };
-  for (size_t i = 0; i < truth.boxes.size(); i++) {
-    BoundingBox b = truth.boxes[i];
-    const int64_t key = boxKey(b, i);
-    if (missed(key)) {
-      semEdit(b.box, b.class_id, coco::kNone);
-      continue;
-    }
-    if (int c = swapped(key, b.class_id); c > 0) {
-      semEdit(b.box, b.class_id, std::min(c, 255));
-      b.class_id = c;
-    }
-    if (d.jitter > 0) {
-      const auto u = [&](int k) { return 2.0 * hashUniform(seed, frame, key, kJitter + uint64_t(k)) - 1.0; };
-      const double w = b.box.width, h = b.box.height;
-      const double cx = b.box.x + 0.5 * w + d.jitter * w * u(0), cy = b.box.y + 0.5 * h + d.jitter * h * u(1);
-      const double nw = w * (1.0 + d.jitter * u(2)), nh = h * (1.0 + d.jitter * u(3));
-      b.box = cv::Rect2f(float(cx - 0.5 * nw), float(cy - 0.5 * nh), float(nw), float(nh));
-    }
-    if (image.area() > 0) b.box = det::clipBox(b.box, image);
-    if (b.box.width <= 0 || b.box.height <= 0) continue;
-    out.boxes.push_back(b);
   }
 
-  // --- false positives
-  if (d.false_positive_rate > 0) {
+  /** Boxes: misses, class swaps, jitter, clipping. */
+  void boxes() {
+    for (size_t i = 0; i < truth.boxes.size(); i++) {
+      BoundingBox b = truth.boxes[i];
+      const int64_t key = b.instance_id >= 0 ? int64_t(b.instance_id) : -int64_t(i) - 1;
+      if (missed(key)) {
+        semEdit(b.box, b.class_id, coco::kNone);
+        continue;
+      }
+      if (int c = swapped(key, b.class_id); c > 0) {
+        semEdit(b.box, b.class_id, std::min(c, 255));
+        b.class_id = c;
+      }
+      if (d.jitter > 0) {
+        const auto u = [&](int k) { return 2.0 * hashUniform(seed, frame, key, kJitter + uint64_t(k)) - 1.0; };
+        const double w = b.box.width, h = b.box.height;
+        const double cx = b.box.x + 0.5 * w + d.jitter * w * u(0), cy = b.box.y + 0.5 * h + d.jitter * h * u(1);
+        const double nw = w * (1.0 + d.jitter * u(2)), nh = h * (1.0 + d.jitter * u(3));
+        b.box = cv::Rect2f(float(cx - 0.5 * nw), float(cy - 0.5 * nh), float(nw), float(nh));
+      }
+      if (image.area() > 0) b.box = det::clipBox(b.box, image);
+      if (b.box.width <= 0 || b.box.height <= 0) continue;
+      out.boxes.push_back(b);
+    }
+  }
+
+  /** False-positive boxes, painted into the masks when asked. */
+  void falsePositives() {
+    if (d.false_positive_rate <= 0) return;
     if (image.area() <= 0)
       throw DataError("frame " + std::to_string(frame) + ": image size unknown, cannot place false positives");
     const double fl = std::floor(d.false_positive_rate);
@@ -158,52 +170,67 @@ Detections degrade(const Detections& truth, const Degradation& d, uint64_t seed,
       b.score = float(0.5 + 0.5 * u(4));
       if (b.box.area() <= 0) continue;
       out.boxes.push_back(b);
-      if (!d.fp_in_masks) continue;
-      const cv::Point ctr(int(b.box.x + b.box.width / 2), int(b.box.y + b.box.height / 2));
-      const cv::Size ax(std::max(1, int(b.box.width / 2)), std::max(1, int(b.box.height / 2)));
-      if (!truth.semantic.empty()) {
-        if (!sem_cloned) {
-          out.semantic = truth.semantic.clone();
-          sem_cloned = true;
-        }
-        cv::ellipse(out.semantic, ctr, ax, 0, 0, 360, cv::Scalar(std::min(d.fp_class, 255)), cv::FILLED);
-      }
-      if (have_pan) {
-        if (out.panoptic.data == truth.panoptic.data) out.panoptic = truth.panoptic.clone();
-        PanopticSegment s;
-        s.id = next_id++;
-        s.category_id = d.fp_class;
-        s.kind = coco::isThing(d.fp_class) ? SegmentKind::Thing : SegmentKind::Stuff;
-        s.instance_id = -1;
-        s.score = b.score;
-        cv::ellipse(out.panoptic, ctr, ax, 0, 0, 360, cv::Scalar(s.id), cv::FILLED);
-        out.segments.push_back(s);
-      }
+      if (d.fp_in_masks) paintFalsePositive(b, next_id);
     }
-    if (d.fp_in_masks && have_pan) {
-      // Areas and boxes of segments changed by painting: recompute from pixels.
-      std::map<int, std::pair<int, cv::Rect>> st;
-      for (int r = 0; r < out.panoptic.rows; r++) {
-        const int32_t* p = out.panoptic.ptr<int32_t>(r);
-        for (int c = 0; c < out.panoptic.cols; c++) {
-          if (!p[c]) continue;
-          auto& e = st[p[c]];
-          e.first++;
-          e.second = e.first == 1 ? cv::Rect(c, r, 1, 1) : (e.second | cv::Rect(c, r, 1, 1));
-        }
-      }
-      std::vector<PanopticSegment> segs;
-      for (auto s : out.segments) {
-        auto it = st.find(s.id);
-        if (it == st.end()) continue;  // fully covered
-        s.area = it->second.first;
-        s.bbox = it->second.second;
-        segs.push_back(s);
-      }
-      out.segments = segs;
-    }
+    if (d.fp_in_masks && have_pan) recomputeSegmentStats();
   }
-  return out;
+
+  void paintFalsePositive(const BoundingBox& b, int& next_id) {
+    const cv::Point ctr(int(b.box.x + b.box.width / 2), int(b.box.y + b.box.height / 2));
+    const cv::Size ax(std::max(1, int(b.box.width / 2)), std::max(1, int(b.box.height / 2)));
+    if (!truth.semantic.empty()) {
+      cloneSemantic();
+      cv::ellipse(out.semantic, ctr, ax, 0, 0, 360, cv::Scalar(std::min(d.fp_class, 255)), cv::FILLED);
+    }
+    if (!have_pan) return;
+    if (out.panoptic.data == truth.panoptic.data) out.panoptic = truth.panoptic.clone();
+    PanopticSegment s;
+    s.id = next_id++;
+    s.category_id = d.fp_class;
+    s.kind = coco::isThing(d.fp_class) ? SegmentKind::Thing : SegmentKind::Stuff;
+    s.instance_id = -1;
+    s.score = b.score;
+    cv::ellipse(out.panoptic, ctr, ax, 0, 0, 360, cv::Scalar(s.id), cv::FILLED);
+    out.segments.push_back(s);
+  }
+
+  /** Areas and boxes of segments changed by painting, from the pixels. */
+  void recomputeSegmentStats() {
+    std::map<int, std::pair<int, cv::Rect>> st;
+    for (int r = 0; r < out.panoptic.rows; r++) {
+      const int32_t* p = out.panoptic.ptr<int32_t>(r);
+      for (int c = 0; c < out.panoptic.cols; c++) {
+        if (!p[c]) continue;
+        auto& e = st[p[c]];
+        e.first++;
+        e.second = e.first == 1 ? cv::Rect(c, r, 1, 1) : (e.second | cv::Rect(c, r, 1, 1));
+      }
+    }
+    std::vector<PanopticSegment> segs;
+    for (auto s : out.segments) {
+      auto it = st.find(s.id);
+      if (it == st.end()) continue;  // fully covered
+      s.area = it->second.first;
+      s.bbox = it->second.second;
+      segs.push_back(s);
+    }
+    out.segments = segs;
+  }
+};
+
+}  // namespace
+
+Detections degrade(const Detections& truth, const Degradation& d, uint64_t seed, int64_t frame, cv::Size image) {
+  Degrader g{truth, d, seed, frame, image, d.swap_classes, truth, false, false};
+  g.out.boxes.clear();
+  g.out.segments.clear();
+  if (g.swap_to.empty())
+    for (int i = 0; i < 80; i++) g.swap_to.push_back(coco::cocoIdFromIndex80(i));
+  g.have_pan = !truth.panoptic.empty();
+  g.segments();
+  g.boxes();
+  g.falsePositives();
+  return g.out;
 }
 
 // ------------------------------------------------------------ the plugin
