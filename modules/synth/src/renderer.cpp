@@ -275,19 +275,15 @@ struct Renderer::Impl {
     for (auto& th : pool) th.join();
   }
 
-  /** Ray-casts one view into colour (CV_32FC3, BGR 0..255), z (CV_32F) and
-   *  label code (CV_32S: >0 instance id, -1-surface for the room). */
-  void view(const SE3& T_wc, const std::vector<Primitive>& prims, cv::Mat& color, cv::Mat& zbuf, cv::Mat& code) const {
-    const int W = s.width, H = s.height;
+  /** Primitives in view, prepared for ray casting, and binned into the
+   *  kTile x kTile tiles their projected bound overlaps (`bins`: prep
+   *  indices per tile, TW x TH tiles). */
+  std::vector<Prep> binPrimitives(const SE3& T_wc, const std::vector<Primitive>& prims, int TW, int TH,
+                                  std::vector<std::vector<int>>& bins) const {
     const auto& K = s.intrinsics;
-    color.create(H, W, CV_32FC3);
-    zbuf.create(H, W, CV_32F);
-    code.create(H, W, CV_32S);
     const Eigen::Matrix3d R = T_wc.rotation();
     const Vec3 o = T_wc.translation();
-    // Prepare primitives and bin them into tiles by their projected bounding sphere.
-    const int TW = (W + kTile - 1) / kTile, TH = (H + kTile - 1) / kTile;
-    std::vector<std::vector<int>> bins(static_cast<size_t>(TW * TH));
+    bins.assign(static_cast<size_t>(TW * TH), {});
     std::vector<Prep> prep;
     prep.reserve(prims.size());
     for (const auto& P : prims) {
@@ -340,6 +336,22 @@ struct Renderer::Impl {
       for (int ty = y0; ty <= y1; ty++)
         for (int tx = x0; tx <= x1; tx++) bins[static_cast<size_t>(ty * TW + tx)].push_back(idx);
     }
+    return prep;
+  }
+
+  /** Ray-casts one view into colour (CV_32FC3, BGR 0..255), z (CV_32F) and
+   *  label code (CV_32S: >0 instance id, -1-surface for the room). */
+  void view(const SE3& T_wc, const std::vector<Primitive>& prims, cv::Mat& color, cv::Mat& zbuf, cv::Mat& code) const {
+    const int W = s.width, H = s.height;
+    const auto& K = s.intrinsics;
+    color.create(H, W, CV_32FC3);
+    zbuf.create(H, W, CV_32F);
+    code.create(H, W, CV_32S);
+    const Eigen::Matrix3d R = T_wc.rotation();
+    const Vec3 o = T_wc.translation();
+    const int TW = (W + kTile - 1) / kTile, TH = (H + kTile - 1) / kTile;
+    std::vector<std::vector<int>> bins;
+    const std::vector<Prep> prep = binPrimitives(T_wc, prims, TW, TH, bins);
     const Vec3 half = s.room.size / 2;
     const Vec3 lo(-half.x(), -half.y(), 0), hi(half.x(), half.y(), s.room.size.z());
     std::atomic<int> next_row{0};
