@@ -75,6 +75,73 @@ std::vector<ParamSpec> KittiDataset::paramSpecs() const {
   };
 }
 
+namespace {
+
+/** Frame times: the times file (one per line, as many as images), else i / rate. */
+std::vector<double> kittiTimes(const Params& p, const std::string& root, size_t n_images, const std::string& left_dir,
+                               double rate) {
+  std::vector<double> stamps;
+  const std::string times = p.getString("times");
+  const std::string tf = times.empty() ? "" : resolvePath(times, root);
+  if (!tf.empty() && fileExists(tf)) {
+    for (const auto& l : ds::readDataLines(tf)) {
+      const auto f = ds::splitFields(l.text);
+      const auto t = f.size() == 1 ? yamlu::parseDouble(f[0]) : std::nullopt;
+      if (!t) throw DataError(tf + ":" + std::to_string(l.lineno) + ": expected one time in seconds, got '" + l.text + "'");
+      stamps.push_back(*t);
+    }
+    if (stamps.size() != n_images)
+      throw DataError(tf + ": has " + std::to_string(stamps.size()) + " times but " + left_dir + " has " +
+                      std::to_string(n_images) + " images");
+    ds::requireIncreasing(stamps, tf);
+  } else {
+    if (p.isGiven("times") && !times.empty()) requireFile(tf, "KITTI times file", kKittiLayout);
+    for (size_t i = 0; i < n_images; i++) stamps.push_back(static_cast<double>(i) / rate);
+  }
+  return stamps;
+}
+
+/** Rectified camera from the projection matrices `pl` / `pr` of calib.txt
+ *  and the size of the first readable left image (fps set by the caller). */
+CameraModel kittiCamera(const std::string& cf, const std::string& pl, const std::string& pr, bool stereo,
+                        const std::string& left_dir, const std::vector<std::string>& names) {
+  requireFile(cf, "KITTI calibration file", kKittiLayout);
+  const KittiCalib calib = readKittiCalib(cf);
+  const auto* P_l = calib.find(pl);
+  const auto* P_r = calib.find(pr);
+  if (!P_l) throw DataError(cf + ": no matrix " + pl + " for the left camera (" + kKittiLayout + ")");
+  if (stereo && !P_r) throw DataError(cf + ": no matrix " + pr + " for the right camera (" + kKittiLayout + ")");
+  CameraModel cam;
+  cam.name = "kitti";
+  cam.sensor = stereo ? SensorType::Stereo : SensorType::Monocular;
+  cam.left.fx = (*P_l)[0];
+  cam.left.fy = (*P_l)[5];
+  cam.left.cx = (*P_l)[2];
+  cam.left.cy = (*P_l)[6];
+  if (!(cam.left.fx > 0) || !(cam.left.fy > 0)) throw DataError(cf + ": matrix " + pl + " has no positive focal length");
+  if (P_r) {
+    cam.baseline = ((*P_l)[3] - (*P_r)[3]) / cam.left.fx;
+    if (stereo && !(cam.baseline > 0))
+      throw DataError(cf + ": baseline from " + pl + "/" + pr + " is " + std::to_string(cam.baseline) +
+                      " m; expected > 0 (P1[0][3] = -fx * baseline)");
+  }
+  // Image size from the first readable left image.
+  for (size_t i = 0; i < std::min<size_t>(names.size(), 5) && cam.left.width == 0; i++) {
+    cv::Mat im = cv::imread(left_dir + "/" + names[i], cv::IMREAD_UNCHANGED);
+    cam.left.width = im.cols;
+    cam.left.height = im.rows;
+  }
+  if (cam.left.width == 0) throw DataError("KITTI: cannot read any of the first images in " + left_dir);
+  cam.right = cam.left;
+  cam.T_left_right = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(cam.baseline, 0, 0));
+  cam.rectified = true;
+  cam.depth_threshold = 35.0;  // ORB-SLAM2 KITTI*.yaml ThDepth
+  cam.depth_factor = 1.0;
+  return cam;
+}
+
+}  // namespace
+
 void KittiDataset::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
   root_ = p.getString("path");
@@ -122,64 +189,10 @@ void KittiDataset::configure(const Params& p, const PluginContext& ctx) {
                                 << rn.size() << "; frames without a right image fail when read");
   }
 
-  // Times.
   const double rate = p.getDouble("rate");
-  stamps_.clear();
-  const std::string times = p.getString("times");
-  const std::string tf = times.empty() ? "" : resolvePath(times, root_);
-  if (!tf.empty() && fileExists(tf)) {
-    for (const auto& l : ds::readDataLines(tf)) {
-      const auto f = ds::splitFields(l.text);
-      const auto t = f.size() == 1 ? yamlu::parseDouble(f[0]) : std::nullopt;
-      if (!t) throw DataError(tf + ":" + std::to_string(l.lineno) + ": expected one time in seconds, got '" + l.text + "'");
-      stamps_.push_back(*t);
-    }
-    if (stamps_.size() != names_.size())
-      throw DataError(tf + ": has " + std::to_string(stamps_.size()) + " times but " + left_dir_ + " has " +
-                      std::to_string(names_.size()) + " images");
-    ds::requireIncreasing(stamps_, tf);
-  } else {
-    if (p.isGiven("times") && !times.empty()) requireFile(tf, "KITTI times file", kKittiLayout);
-    for (size_t i = 0; i < names_.size(); i++) stamps_.push_back(static_cast<double>(i) / rate);
-  }
-
-  // Calibration.
-  const std::string cf = resolvePath(p.getString("calib"), root_);
-  requireFile(cf, "KITTI calibration file", kKittiLayout);
-  const KittiCalib calib = readKittiCalib(cf);
-  const auto* P_l = calib.find(pl);
-  const auto* P_r = calib.find(pr);
-  if (!P_l) throw DataError(cf + ": no matrix " + pl + " for the left camera (" + kKittiLayout + ")");
-  if (stereo_ && !P_r) throw DataError(cf + ": no matrix " + pr + " for the right camera (" + kKittiLayout + ")");
-  CameraModel cam;
-  cam.name = "kitti";
-  cam.sensor = stereo_ ? SensorType::Stereo : SensorType::Monocular;
-  cam.left.fx = (*P_l)[0];
-  cam.left.fy = (*P_l)[5];
-  cam.left.cx = (*P_l)[2];
-  cam.left.cy = (*P_l)[6];
-  if (!(cam.left.fx > 0) || !(cam.left.fy > 0))
-    throw DataError(cf + ": matrix " + pl + " has no positive focal length");
-  if (P_r) {
-    cam.baseline = ((*P_l)[3] - (*P_r)[3]) / cam.left.fx;
-    if (stereo_ && !(cam.baseline > 0))
-      throw DataError(cf + ": baseline from " + pl + "/" + pr + " is " + std::to_string(cam.baseline) +
-                      " m; expected > 0 (P1[0][3] = -fx * baseline)");
-  }
-  // Image size from the first readable left image.
-  for (size_t i = 0; i < std::min<size_t>(names_.size(), 5) && cam.left.width == 0; i++) {
-    cv::Mat im = cv::imread(left_dir_ + "/" + names_[i], cv::IMREAD_UNCHANGED);
-    cam.left.width = im.cols;
-    cam.left.height = im.rows;
-  }
-  if (cam.left.width == 0) throw DataError("KITTI: cannot read any of the first images in " + left_dir_);
-  cam.right = cam.left;
-  cam.T_left_right = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(cam.baseline, 0, 0));
-  cam.rectified = true;
-  cam.depth_threshold = 35.0;  // ORB-SLAM2 KITTI*.yaml ThDepth
-  cam.fps = names_.size() > 1 ? (names_.size() - 1) / (stamps_.back() - stamps_.front()) : rate;
-  cam.depth_factor = 1.0;
-  camera_ = cam;
+  stamps_ = kittiTimes(p, root_, names_.size(), left_dir_, rate);
+  camera_ = kittiCamera(resolvePath(p.getString("calib"), root_), pl, pr, stereo_, left_dir_, names_);
+  camera_->fps = names_.size() > 1 ? (names_.size() - 1) / (stamps_.back() - stamps_.front()) : rate;
 
   // Ground truth: one pose per frame, in frame order.
   gt_.clear();
