@@ -214,21 +214,16 @@ TEST(TumDataset, BadInputs) {
     EXPECT_NE(e.find("16-bit"), std::string::npos) << e;
     EXPECT_THROW(ds->read(4), DataError);  // out of range
   }
-  // Timestamps going backwards.
+  // A first field that is not a number is garbage (associate.py fails on it too).
   {
     TinyTum t;
-    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\n1.1 rgb/1.100000.png\n1.05 rgb/1.066000.png\n");
+    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nabc rgb/1.100000.png\n");
     e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("rgb.txt:3"), std::string::npos) << e;
-    EXPECT_NE(e.find("must increase"), std::string::npos) << e;
-  }
-  // Short line.
-  {
-    TinyTum t;
-    writeFile(t.dir + "/depth.txt", "# depth\n1.005 depth/1.005000.png\n1.040\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("depth.txt:3"), std::string::npos) << e;
+    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
     EXPECT_NE(e.find("timestamp path"), std::string::npos) << e;
+    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nnan rgb/1.100000.png\n");
+    e = dataErrorOf([&] { t.open(); });
+    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
   }
   // Association line with three fields / backwards association.
   {
@@ -236,10 +231,9 @@ TEST(TumDataset, BadInputs) {
     writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png 1.005\n");
     e = dataErrorOf([&] { t.open(); });
     EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
-    writeFile(t.dir + "/associations.txt",
-              "1.1 rgb/1.100000.png 1.09 depth/1.090000.png\n1.0 rgb/1.000000.png 1.005 depth/1.005000.png\n");
+    writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png x.y depth/1.005000.png\n");
     e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("associations.txt:2"), std::string::npos) << e;
+    EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
   }
   // No frame at all.
   {
@@ -248,4 +242,54 @@ TEST(TumDataset, BadInputs) {
     e = dataErrorOf([&] { t.open(); });
     EXPECT_NE(e.find("no frames"), std::string::npos) << e;
   }
+}
+
+// Lists as the TUM tools read them (associate.py read_file_list: commas and
+// tabs separate, a line with one field is skipped, a dict keyed by time: the
+// last line of a repeated time wins, sorted by time), with one warning.
+TEST(TumDataset, ListsAreReadAsTheTumToolsReadThem) {
+  TinyTum t;
+  writeFile(t.dir + "/rgb.txt",
+            "# color images\r\n"
+            "1.066 rgb/1.066000.png\r\n"             // out of order
+            "\t1.0,rgb/1.000000.png extra columns\n"  // comma, tab, extra fields
+            "   # an indented comment\n"
+            "1.033e0 rgb/1.100000.png\n"             // scientific notation; repeated below
+            "1.040\n"                                // a bare timestamp: skipped
+            "1.033 rgb/1.033000.png   \n"            // the last line of 1.033 wins; trailing blanks
+            "1.1 rgb/1.100000.png\n");
+  testing::internal::CaptureStderr();
+  const auto rgb = readTumList(t.dir + "/rgb.txt");
+  const std::string log = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(rgb.size(), 4u);
+  EXPECT_DOUBLE_EQ(rgb[0].stamp, 1.0);
+  EXPECT_EQ(rgb[0].path, "rgb/1.000000.png");
+  EXPECT_DOUBLE_EQ(rgb[1].stamp, 1.033);
+  EXPECT_EQ(rgb[1].path, "rgb/1.033000.png");
+  EXPECT_DOUBLE_EQ(rgb[2].stamp, 1.066);
+  EXPECT_DOUBLE_EQ(rgb[3].stamp, 1.1);
+  EXPECT_NE(log.find(t.dir + "/rgb.txt: 1 repeated timestamp(s)"), std::string::npos) << log;
+  EXPECT_NE(log.find("1 line(s) without a file name skipped"), std::string::npos) << log;
+  // Out of order: every line after 1.066 that is earlier than it (1.0, 1.033, 1.033).
+  EXPECT_NE(log.find("3 out-of-order line(s)"), std::string::npos) << log;
+
+  // A clean list: no warning at all.
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(readTumList(t.dir + "/depth.txt").size(), 5u);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+
+  // The dataset opens with these lists and reads frames in time order.
+  writeFile(t.dir + "/associations.txt",
+            "1.1 rgb/1.100000.png 1.09 depth/1.090000.png\n"
+            "1.0 rgb/1.000000.png 1.005 depth/1.005000.png\n"
+            "1.0 rgb/1.033000.png 1.040 depth/1.040000.png\n");
+  testing::internal::CaptureStderr();
+  auto ds = t.open();
+  const std::string log2 = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(ds->size(), 2u);
+  EXPECT_DOUBLE_EQ(ds->timestamp(0), 1.0);
+  EXPECT_DOUBLE_EQ(dynamic_cast<TumDataset&>(*ds).depthTimestamp(0), 1.040);  // the last line of t = 1.0
+  EXPECT_DOUBLE_EQ(ds->timestamp(1), 1.1);
+  EXPECT_NO_THROW(ds->read(0));
+  EXPECT_NE(log2.find("associations.txt: 1 repeated timestamp(s)"), std::string::npos) << log2;
 }

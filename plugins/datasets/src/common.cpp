@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "dslam/core/error.h"
+#include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 
 namespace fs = std::filesystem;
@@ -46,6 +47,13 @@ std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt) {
   }
   if (best == gt.size()) return std::nullopt;
   return gt.poses[best];
+}
+
+void reportOrderFix(const std::string& file, const OrderFix& fix) {
+  if (!fix.repeated && !fix.reordered && !fix.skipped) return;
+  DSLAM_LOG(Warn, file << ": " << fix.repeated << " repeated timestamp(s) (the last line of each kept), "
+                       << fix.reordered << " out-of-order line(s) (sorted by time), " << fix.skipped
+                       << " line(s) without a file name skipped, as the TUM benchmark tools do");
 }
 
 void requireIncreasing(const std::vector<double>& s, const std::string& where) {

@@ -117,11 +117,10 @@ std::vector<EurocImageEntry> readEurocImageList(const std::string& cam_dir) {
       if (!t)
         throw DataError(csv + ":" + std::to_string(l.lineno) + ": expected \"timestamp_ns,filename\", got '" + l.text +
                         "'");
-      if (!out.empty() && *t <= out.back().stamp_ns)
-        throw DataError(csv + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + f[0] + " after " +
-                        std::to_string(out.back().stamp_ns) + ")");
       out.push_back({*t, f[1]});
     }
+    // Repeated or unordered times: sorted, the last line of a time kept (one warning), as for TUM lists.
+    ds::reportOrderFix(csv, ds::sortKeepLast(out, [](const EurocImageEntry& e) { return e.stamp_ns; }));
   } else {
     requireDir(cam_dir + "/data", "EuRoC image folder", kEurocLayout);
     for (const auto& n : ds::listFiles(cam_dir + "/data", ".png")) {

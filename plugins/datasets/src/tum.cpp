@@ -3,6 +3,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -27,35 +28,47 @@ static const char* kTumLayout =
     "expected a TUM RGB-D folder: rgb.txt and depth.txt (\"timestamp path\" lines) or associations.txt "
     "(\"t_rgb rgb t_depth depth\"), rgb/ and depth/ images, optional groundtruth.txt";
 
+namespace {
+
+/** A finite timestamp in field 0, or a DataError naming file:line. */
+double stampField(const std::string& file, const ds::TextLine& l, const std::string& field, const char* expected) {
+  const auto t = yamlu::parseDouble(field);
+  if (!t || !std::isfinite(*t))
+    throw DataError(file + ":" + std::to_string(l.lineno) + ": expected " + expected + ", got '" + l.text + "'");
+  return *t;
+}
+
+}  // namespace
+
 std::vector<TumEntry> readTumList(const std::string& file) {
+  // associate.py: commas and tabs are separators, a line with fewer than two
+  // fields is skipped, the list is a dict keyed by time (last line wins), sorted.
   std::vector<TumEntry> out;
+  size_t skipped = 0;
   for (const auto& l : ds::readDataLines(file, kTumLayout)) {
-    const auto f = ds::splitFields(l.text);
-    const auto t = f.empty() ? std::nullopt : yamlu::parseDouble(f[0]);
-    if (f.size() < 2 || !t)
-      throw DataError(file + ":" + std::to_string(l.lineno) + ": expected \"timestamp path\", got '" + l.text + "'");
-    if (!out.empty() && *t <= out.back().stamp)
-      throw DataError(file + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + f[0] + " after " +
-                      ds::fmtStamp(out.back().stamp) + ")");
-    out.push_back({*t, f[1]});
+    const auto f = ds::splitFields(l.text, true);
+    if (f.size() < 2) {  // a bare timestamp: nothing to read
+      if (!f.empty()) stampField(file, l, f[0], "\"timestamp path\"");
+      skipped++;
+      continue;
+    }
+    out.push_back({stampField(file, l, f[0], "\"timestamp path\""), f[1]});
   }
+  ds::OrderFix fix = ds::sortKeepLast(out, [](const TumEntry& e) { return e.stamp; });
+  fix.skipped = skipped;
+  ds::reportOrderFix(file, fix);
   return out;
 }
 
 std::vector<TumAssociation> readTumAssociations(const std::string& file) {
   std::vector<TumAssociation> out;
   for (const auto& l : ds::readDataLines(file, kTumLayout)) {
-    const auto f = ds::splitFields(l.text);
-    const auto ta = f.size() >= 4 ? yamlu::parseDouble(f[0]) : std::nullopt;
-    const auto tb = f.size() >= 4 ? yamlu::parseDouble(f[2]) : std::nullopt;
-    if (!ta || !tb)
-      throw DataError(file + ":" + std::to_string(l.lineno) + ": expected \"t_rgb rgb t_depth depth\", got '" +
-                      l.text + "'");
-    if (!out.empty() && *ta <= out.back().t_rgb)
-      throw DataError(file + ":" + std::to_string(l.lineno) + ": timestamps must increase (" + f[0] + " after " +
-                      ds::fmtStamp(out.back().t_rgb) + ")");
-    out.push_back({*ta, *tb, f[1], f[3]});
+    const auto f = ds::splitFields(l.text, true);
+    const char* expected = "\"t_rgb rgb t_depth depth\"";
+    if (f.size() < 4) throw DataError(file + ":" + std::to_string(l.lineno) + ": expected " + expected + ", got '" + l.text + "'");
+    out.push_back({stampField(file, l, f[0], expected), stampField(file, l, f[2], expected), f[1], f[3]});
   }
+  ds::reportOrderFix(file, ds::sortKeepLast(out, [](const TumAssociation& a) { return a.t_rgb; }));
   return out;
 }
 

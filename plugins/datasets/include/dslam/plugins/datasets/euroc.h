@@ -37,7 +37,8 @@ struct EurocImageEntry {
   int64_t stamp_ns = 0;
   std::string file;  ///< relative to the cam's data/ folder
 };
-/** Reads mav0/camN/data.csv (or lists data/ if it does not exist). */
+/** Reads mav0/camN/data.csv (or lists data/ if it does not exist), sorted by
+ *  time; of repeated times the last line is kept (one warning). */
 std::vector<EurocImageEntry> readEurocImageList(const std::string& cam_dir);
 
 class EurocDataset : public DatasetSource {

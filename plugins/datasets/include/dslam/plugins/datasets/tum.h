@@ -24,9 +24,12 @@ struct TumEntry {
   std::string path;  ///< relative to the root
 };
 
-/** Reads "timestamp path" lines (rgb.txt, depth.txt). Throws DataError
- *  "file:line: ..." for short lines, bad numbers and timestamps that do not
- *  increase. */
+/** Reads "timestamp path" lines (rgb.txt, depth.txt) as TUM's associate.py
+ *  does: spaces, tabs and commas separate fields, '#' lines are comments,
+ *  extra fields are ignored, a line with a timestamp only is skipped, and the
+ *  result is sorted by time with the last line of a repeated time kept (one
+ *  warning says what was done). Throws DataError "file:line: ..." for a
+ *  field 1 that is not a finite number. */
 std::vector<TumEntry> readTumList(const std::string& file);
 
 /** One line of an association file. */
@@ -35,8 +38,9 @@ struct TumAssociation {
   std::string rgb, depth;  ///< relative to the root
 };
 
-/** Reads "t_rgb rgb t_depth depth" lines (associate.py output), same checks
- *  as readTumList (RGB stamps must increase). */
+/** Reads "t_rgb rgb t_depth depth" lines (associate.py output) with the
+ *  same rules as readTumList, keyed by t_rgb; a line with fewer than four
+ *  fields is an error. */
 std::vector<TumAssociation> readTumAssociations(const std::string& file);
 
 /** TUM associate.py semantics: greedy one-to-one matching of the pairs with
