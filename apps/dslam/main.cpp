@@ -44,8 +44,8 @@ int main(int argc, char** argv) {
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << std::endl;
     return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
+  } catch (const std::exception& e) {  // a library's exception (MRPT, OpenCV): its message line, not its backtrace
+    std::cerr << "error: " << exceptionSummary(e, 1000) << std::endl;
     return 1;
   }
   return app::exitCode();

@@ -92,8 +92,15 @@ class Reader {
     return v;
   }
   void bytes(void* p, size_t n) {
+    if (!tryBytes(p, n)) fail("truncated");
+  }
+  /** Reads n bytes; false if the file ends first. */
+  bool tryBytes(void* p, size_t n) {
     f_.read(static_cast<char*>(p), static_cast<std::streamsize>(n));
-    if (static_cast<size_t>(f_.gcount()) != n) fail("truncated");
+    const auto got = static_cast<size_t>(f_.gcount());
+    if (got != n) return false;
+    pos_ += got;
+    return true;
   }
   /** A count field, checked against a sanity limit. */
   uint64_t count(uint64_t limit, const char* what) {
@@ -102,13 +109,14 @@ class Reader {
     return n;
   }
   [[noreturn]] void fail(const std::string& what) {
-    throw DataError("atlas file " + path_ + " is corrupt (" + what + " at byte " + std::to_string(static_cast<long long>(f_.tellg())) +
+    throw DataError("atlas file " + path_ + " is corrupt (" + what + " at byte " + std::to_string(pos_) +
                     "); it was not written by this dslam version or was damaged");
   }
 
  private:
   std::ifstream f_;
   std::string path_;
+  uint64_t pos_ = 0;  ///< bytes read so far
 };
 
 void putPose(Writer& w, const SE3& T) {
@@ -360,8 +368,7 @@ std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected&
 void Atlas::load(const std::string& path) {
   Reader r(path);
   char magic[8];
-  r.bytes(magic, 8);
-  if (std::memcmp(magic, kMagic, 8) != 0)
+  if (!r.tryBytes(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
     throw DataError(path + " is not a dslam atlas file (expected the 'DSLAMATL' header written by dslam run with outputs.atlas)");
   const uint32_t version = r.get<uint32_t>();
   if (version != kFileVersion)

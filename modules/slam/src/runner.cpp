@@ -3,6 +3,7 @@
 // with its plug-ins, the frame loop, the output files and the summary.
 #include <mrpt/containers/yaml.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include <atomic>
 #include <csignal>
@@ -210,6 +211,19 @@ struct LoopOutcome {
   int stop_signal = 0;  ///< SIGINT/SIGTERM that stopped the loop, 0 if none
 };
 
+/** An RGB-D frame whose depth image has no valid pixel (all 0: sensor
+ *  dropout, a blank file) is tracked like a monocular frame against the map;
+ *  said as a warning for the first three, counted in the summary and the
+ *  events for every one. */
+void noteEmptyDepth(const SensorFrame& sf, size_t i, EventLog& ev, RunSummary& sum) {
+  if (sf.depth.empty() || cv::countNonZero(sf.depth) > 0) return;
+  if (++sum.empty_depth_frames <= 3)
+    DSLAM_LOG(Warn, "frame " << i << ": depth image " << sf.depth_path
+                             << " has no valid depth (every pixel 0): tracked without depth"
+                             << (sum.empty_depth_frames == 3 ? " (further frames like this are counted in summary.json)" : ""));
+  ev.write(json{{"event", "empty_depth"}, {"frame", i}, {"file", sf.depth_path}});
+}
+
 /** Tracks frames [start, start + n*stride) of `reader`; the next frame is read
  *  and decoded on a helper thread while the current one is processed
  *  (reading is deterministic, so sequential runs stay repeatable). */
@@ -246,10 +260,13 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
         if (read_error) std::rethrow_exception(read_error);
       } catch (const DataError& e) {
         if (dc.on_bad_frame != config::OnBadFrame::Skip) throw;
-        DSLAM_LOG(Warn, "skipping frame " << i << ": " << e.what());
+        const std::string what = e.what();  // reader errors name the frame: "frame N: ..."
+        DSLAM_LOG(Warn, "skipping " << (what.rfind("frame ", 0) == 0 ? "" : "frame " + std::to_string(i) + ": ") << what);
         ev.write(json{{"event", "bad_frame"}, {"frame", i}, {"error", e.what()}});
+        sum.skipped_frames++;
         continue;
       }
+      noteEmptyDepth(sf, i, ev, sum);
       const FrameResult r = sys.track(sf);
       lo.frame_ms.push_back(r.ms_total);
       sum.frames++;
@@ -330,6 +347,8 @@ void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc,
   j["mean_ms"] = sum.mean_ms;
   j["fps"] = sum.fps;
   j["wall_s"] = sum.wall_s;
+  j["skipped_frames"] = sum.skipped_frames;
+  j["empty_depth_frames"] = sum.empty_depth_frames;
   if (sum.ate_rmse) {
     j["ate_rmse"] = *sum.ate_rmse;
     j["ate_pairs"] = sum.ate_pairs;

@@ -14,6 +14,7 @@
 #include <unordered_set>
 
 #include "common.h"
+#include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/timing.h"
 
@@ -42,13 +43,6 @@ mrpt::poses::CPose3D toMrpt(const SE3& T) {
 
 SE3 fromMrpt(const mrpt::poses::CPose3D& p) {
   return SE3(Eigen::Matrix3d(p.getRotationMatrix().asEigen()), Eigen::Vector3d(p.x(), p.y(), p.z()));
-}
-
-/** First line of an MRPT exception message (they carry a long backtrace). */
-std::string firstLine(const std::exception& e) {
-  std::string s = e.what();
-  const size_t nl = s.find('\n');
-  return nl == std::string::npos ? s : s.substr(0, nl);
 }
 
 }  // namespace
@@ -171,7 +165,7 @@ BAResult MrptBackend::bundleAdjust(BAProblem& problem, const BAOptions& opt_in) 
           [&](size_t, double, size_t, const mrpt::vision::TSequenceFeatureObservations&,
               const mrpt::vision::TFramePosesVec&, const mrpt::vision::TLandmarkLocationsVec&) { iters++; });
     } catch (const std::exception& e) {
-      msg << "bundle_adj_full failed: " << firstLine(e) << "; ";
+      msg << "bundle_adj_full failed: " << exceptionSummary(e) << "; ";
       return false;
     }
     res.iterations += iters;
@@ -230,7 +224,7 @@ PoseGraphResult MrptBackend::optimizePoseGraph(PoseGraph& graph, const PoseGraph
     mrpt::graphslam::optimize_graph_spa_levmarq(G, info, &free_nodes, ep);
   } catch (const std::exception& e) {
     res.success = false;
-    res.message = "optimize_graph_spa_levmarq failed: " + firstLine(e);
+    res.message = "optimize_graph_spa_levmarq failed: " + exceptionSummary(e);
     res.final_cost = res.initial_cost;
     res.time_ms = backends::elapsedMs(t0);
     return res;

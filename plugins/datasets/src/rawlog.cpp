@@ -96,9 +96,8 @@ struct RawlogDataset::Impl {
     } catch (const std::exception& e) {
       std::string msg = e.what();
       if (msg.find("EOF") != std::string::npos && msg.find("Cannot read object") != std::string::npos) return nullptr;
-      const auto nl = msg.find('\n', msg.find("Message:") != std::string::npos ? msg.find("Message:") : 0);
       throw DataError("rawlog " + file + ": cannot read object " + std::to_string(next_obj) +
-                      " (corrupt or truncated file): " + msg.substr(0, std::min<size_t>(nl, 300)));
+                      " (corrupt or truncated file): " + exceptionSummary(e));
     }
   }
 

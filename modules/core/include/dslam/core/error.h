@@ -25,4 +25,18 @@ class ConfigError : public Error {
   using Error::Error;
 };
 
+/** The message of a third-party exception as one short line: the text after
+ *  "Message:" of an MRPT exception (which carries a multi-line backtrace),
+ *  else its first line; cut to `max_len` characters. */
+inline std::string exceptionSummary(const std::exception& e, size_t max_len = 300) {
+  std::string s = e.what();
+  if (const size_t m = s.find("Message:"); m != std::string::npos) {
+    s.erase(0, m + 8);
+    s.erase(0, s.find_first_not_of(" \t"));
+  }
+  if (const size_t nl = s.find('\n'); nl != std::string::npos) s.erase(nl);
+  if (s.size() > max_len) s = s.substr(0, max_len) + "...";
+  return s;
+}
+
 }  // namespace dslam

@@ -158,6 +158,8 @@ struct RunOverrides {
 /** Summary of a run (also written to <out>/summary.json). */
 struct RunSummary {
   size_t frames = 0, tracked = 0, keyframes = 0, map_points = 0, maps = 1;
+  size_t skipped_frames = 0;      ///< unreadable frames skipped (dataset.on_bad_frame: skip)
+  size_t empty_depth_frames = 0;  ///< RGB-D frames whose depth image has no valid pixel (tracked without depth)
   double median_ms = 0, mean_ms = 0, fps = 0, wall_s = 0;
   std::optional<double> ate_rmse;  ///< metres, SE(3) alignment, when ground truth exists
   size_t ate_pairs = 0;

@@ -1,0 +1,393 @@
+// The bad-input matrix: every bad input a user can hand dslam, run through
+// the CLI as a user would, with the message it prints and its exit code.
+// docs/errors.md is generated from this table (DSLAM_UPDATE_DOCS=1 rewrites
+// it); the test fails when the page and the program disagree.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+
+namespace dslam::test {
+namespace {
+
+struct Case {
+  std::string input;  ///< which file or argument
+  std::string wrong;  ///< what is wrong with it
+  /** Writes the bad input under `dir` and returns the dslam arguments. */
+  std::function<std::string(const std::string& dir)> setup;
+  int exit_code;
+  std::vector<std::string> must;  ///< substrings the message must contain ($DIR = the case folder)
+  std::string line_prefix = "error:";  ///< the line that is the message ("[warn]" for documented skips)
+};
+
+std::string q(const std::string& s) { return "'" + s + "'"; }
+
+/** A small rendered RGB-D scene in the TUM layout (8 frames, 320x240). */
+const std::string& tinyScene() {
+  static const std::string dir = [] {
+    const std::string d = tempDir("bad_input_scene") + "/tum";
+    const auto r = runDslam("synth " + q(source("config/scenarios/static_office.yaml")) + " --out " + q(d) +
+                            " --frames 8 --resolution 320x240 --no-right --no-labels --threads 1");
+    if (r.exit_code != 0) ADD_FAILURE() << r.out;
+    return d;
+  }();
+  return dir;
+}
+
+/** A copy of the tiny scene in dir/tum; returns its path. */
+std::string sceneCopy(const std::string& dir) {
+  const std::string d = dir + "/tum";
+  fs::copy(tinyScene(), d, fs::copy_options::recursive);
+  return d;
+}
+
+/** The i-th (sorted) file of a folder. */
+std::string nthFile(const std::string& folder, size_t i) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(folder)) names.push_back(e.path().string());
+  std::sort(names.begin(), names.end());
+  return names.at(i);
+}
+
+/** A 16-bit PNG of zeros (a depth image without any valid pixel). */
+void writeZeroDepth(const std::string& path, int w, int h) {
+  EXPECT_TRUE(cv::imwrite(path, cv::Mat(h, w, CV_16UC1, cv::Scalar(0)))) << path;
+}
+
+std::string pipeline(const std::string& dir, const std::string& text) {
+  writeFile(dir + "/pipeline.yaml", text);
+  return dir + "/pipeline.yaml";
+}
+
+const std::string kBaseline = "config/pipelines/orbslam_baseline.yaml";
+
+std::vector<Case> cases() {
+  std::vector<Case> c;
+  // ---- pipeline YAML --------------------------------------------------------
+  c.push_back({"pipeline YAML", "file does not exist",
+               [](const std::string& d) { return "config check " + q(d + "/missing.yaml"); }, 1,
+               {"config file not found", "missing.yaml"}});
+  c.push_back({"pipeline YAML", "syntax error (unclosed flow sequence)",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\nmodules: [\n"));
+               },
+               1, {"pipeline.yaml:3:1", "YAML syntax error"}});
+  c.push_back({"pipeline YAML", "unknown section (typo)",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\nfeatuers: {n_features: 500}\n"));
+               },
+               1, {"pipeline.yaml:2", "'featuers'", "did you mean 'features'"}});
+  c.push_back({"pipeline YAML", "value of the wrong type",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\nfeatures: {n_features: many}\n"));
+               },
+               1, {"pipeline.yaml:2", "features.n_features", "expected an integer"}});
+  c.push_back({"pipeline YAML", "invalid enum value",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x, mode: sequentail}\n"));
+               },
+               1, {"pipeline.yaml:1", "pipeline.mode", "sequentail"}});
+  c.push_back({"pipeline YAML", "unknown plugin type",
+               [](const std::string& d) {
+                 return "config check " +
+                        q(pipeline(d, "pipeline: {name: x}\nmodules:\n  - name: b\n    type: dslam::CeresBackendd\n"));
+               },
+               1, {"pipeline.yaml:4", "modules[0].type", "did you mean 'dslam::CeresBackend'"}});
+  c.push_back({"pipeline YAML", "unknown plugin parameter",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d,
+                                                     "pipeline: {name: x}\nmodules:\n  - name: b\n    type: "
+                                                     "dslam::CeresBackend\n    params: {max_iteration: 3}\n"));
+               },
+               1, {"pipeline.yaml:5", "modules[0].params.max_iteration", "did you mean 'max_iterations'"}});
+  c.push_back({"pipeline YAML", "`$include{}` of a missing file",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\ncamera: $include{nothere.yaml}\n"));
+               },
+               1, {"pipeline.yaml:2", "included file not found", "nothere.yaml"}});
+  c.push_back({"pipeline YAML", "`$include{}` of a file that is not YAML (quoted, not dumped)",
+               [](const std::string& d) {
+                 std::string lines;
+                 for (int i = 0; i < 50; i++) lines += "user" + std::to_string(i) + ":x:" + std::to_string(i) + ":0::/home:/bin/sh\n";
+                 writeFile(d + "/passwd", lines);
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\ncamera: $include{passwd}\n"));
+               },
+               1, {"passwd:1", "key 'camera'", "expected a map"}});
+  c.push_back({"pipeline YAML", "`${VAR}` not set and without default",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: ${DSLAM_TEST_UNSET_VARIABLE}}\n"));
+               },
+               1, {"DSLAM_TEST_UNSET_VARIABLE", "is not set and has no default"}});
+  c.push_back({"camera section", "negative focal length",
+               [](const std::string& d) {
+                 return "config check " +
+                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: -5, fy: 500, cx: 160, cy: 120, width: 320, "
+                                      "height: 240}\n"));
+               },
+               1, {"pipeline.yaml:2", "camera.fx", "out of range"}});
+  // ---- datasets -------------------------------------------------------------
+  c.push_back({"dataset", "folder does not exist",
+               [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },
+               1, {"dataset not found", "nowhere"}});
+  c.push_back({"TUM rgb.txt", "timestamp that is not a number",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 std::string t = readFile(s + "/rgb.txt");
+                 t += "abc rgb/x.png\n";
+                 writeFile(s + "/rgb.txt", t);
+                 fs::remove(s + "/associations.txt");
+                 return "dataset info " + q(s);
+               },
+               1, {"rgb.txt:", "expected \"timestamp path\"", "abc rgb/x.png"}});
+  c.push_back({"TUM rgb.txt", "repeated and out-of-order timestamps (accepted, as TUM's associate.py)",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 std::string t = readFile(s + "/rgb.txt");
+                 const size_t first = t.find("\n1000");  // first data line
+                 const std::string line = t.substr(first + 1, t.find('\n', first + 1) - first);
+                 writeFile(s + "/rgb.txt", t + line);
+                 fs::remove(s + "/associations.txt");
+                 return "dataset info " + q(s);
+               },
+               0, {"rgb.txt: 1 repeated timestamp(s)", "1 out-of-order line(s)"}, "[warn]"});
+  c.push_back({"TUM rgb image", "missing file",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 fs::remove(nthFile(s + "/rgb", 2));
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"frame 2", "is missing"}});
+  c.push_back({"TUM rgb image", "missing file, `dataset.on_bad_frame: skip`",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 fs::remove(nthFile(s + "/rgb", 2));
+                 const std::string p = pipeline(d, readFile(source(kBaseline)) +
+                                                       "dataset: {type: dslam::TumDataset, on_bad_frame: skip, "
+                                                       "params: {path: " + s + "}}\n");
+                 return "run " + q(p) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               0, {"skipping frame 2", "is missing"}, "[warn]"});
+  c.push_back({"TUM rgb image", "corrupt PNG",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 writeFile(nthFile(s + "/rgb", 2), "not a PNG file");
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"frame 2", "cannot read image", "corrupt or unsupported image"}});
+  c.push_back({"TUM depth image", "8-bit instead of 16-bit",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 fs::copy_file(nthFile(s + "/rgb", 1), nthFile(s + "/depth", 1), fs::copy_options::overwrite_existing);
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"frame 1", "is not 16-bit single channel"}});
+  c.push_back({"TUM depth image", "empty (every pixel 0): tracked without depth",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 writeZeroDepth(nthFile(s + "/depth", 3), 320, 240);
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               0, {"frame 3", "has no valid depth", "tracked without depth"}, "[warn]"});
+  c.push_back({"KITTI calib.txt", "no matrix for the right camera",
+               [](const std::string& d) {
+                 const std::string k = d + "/kitti";
+                 fs::create_directories(k + "/image_0");
+                 fs::create_directories(k + "/image_1");
+                 fs::copy_file(nthFile(tinyScene() + "/rgb", 0), k + "/image_0/000000.png");
+                 fs::copy_file(nthFile(tinyScene() + "/rgb", 0), k + "/image_1/000000.png");
+                 writeFile(k + "/calib.txt", "P0: 500 0 160 0 0 500 120 0 0 0 1 0\n");
+                 return "dataset info " + q(k);
+               },
+               1, {"calib.txt", "no matrix P1 for the right camera"}});
+  c.push_back({"EuRoC sensor.yaml", "no `T_BS`",
+               [](const std::string& d) {
+                 const std::string e = d + "/euroc";
+                 fs::copy(shared("data/euroc-v101-micro"), e, fs::copy_options::recursive);
+                 std::string y = readFile(e + "/mav0/cam0/sensor.yaml");
+                 y.replace(y.find("T_BS:"), 5, "T_XX:");
+                 writeFile(e + "/mav0/cam0/sensor.yaml", y);
+                 return "dataset info " + q(e);
+               },
+               1, {"cam0/sensor.yaml", "missing key 'T_BS'"}});
+  c.push_back({"MRPT rawlog", "not a rawlog (quoted in one line, no MRPT backtrace)",
+               [](const std::string& d) {
+                 writeFile(d + "/bad.rawlog", "this is not a rawlog\n");
+                 return "dataset info " + q(d + "/bad.rawlog");
+               },
+               1, {"bad.rawlog", "cannot read object 0", "corrupt or truncated"}});
+  // ---- trajectories and evaluation -----------------------------------------
+  c.push_back({"`dslam eval` ground truth", "file does not exist",
+               [](const std::string& d) {
+                 return "eval ate " + q(d + "/nothere.txt") + " " + q(tinyScene() + "/groundtruth.txt");
+               },
+               1, {"ground-truth trajectory file not found", "nothere.txt"}});
+  c.push_back({"`dslam eval` estimate", "a field that is not a number",
+               [](const std::string& d) {
+                 writeFile(d + "/est.txt", "1000.0 0 0 0 0 0 0 1\n1000.1 0 x 0 0 0 0 1\n");
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
+               },
+               1, {"est.txt:2", "field 3 is not a number"}});
+  c.push_back({"`dslam eval` estimate", "unknown column count",
+               [](const std::string& d) {
+                 writeFile(d + "/est.txt", "1000.0 0 0 0 0\n");
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
+               },
+               1, {"est.txt:1", "cannot tell the trajectory format from 5 columns"}});
+  c.push_back({"`dslam eval` estimate", "no timestamp near the ground truth",
+               [](const std::string& d) {
+                 writeFile(d + "/est.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n");
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
+               },
+               1, {"no ground-truth pose within max_dt", "spans"}});
+  c.push_back({"`dslam eval` ground truth", "repeated timestamp (accepted, as TUM's tools)",
+               [](const std::string& d) {
+                 std::string g = readFile(tinyScene() + "/groundtruth.txt");
+                 const size_t first = g.find("\n1000");
+                 g += g.substr(first + 1, g.find('\n', first + 1) - first);
+                 writeFile(d + "/gt.txt", g);
+                 return "eval ate " + q(d + "/gt.txt") + " " + q(tinyScene() + "/groundtruth.txt");
+               },
+               0, {"gt.txt: 1 repeated timestamp(s)"}, "[warn]"});
+  // ---- scenarios, vocabularies, atlases, detectors --------------------------
+  c.push_back({"scenario YAML", "unknown key",
+               [](const std::string& d) {
+                 writeFile(d + "/scene.yaml", "name: x\nrom: {}\n");
+                 return "synth " + q(d + "/scene.yaml") + " --out " + q(d + "/out");
+               },
+               1, {"scene.yaml:2", "unknown key 'rom'", "did you mean 'room'"}});
+  c.push_back({"vocabulary", "file does not exist",
+               [](const std::string& d) { return "vocab info " + q(d + "/nothere.dvoc.gz"); }, 1,
+               {"vocabulary not found", "nothere.dvoc.gz"}});
+  c.push_back({"vocabulary", "truncated gzip",
+               [](const std::string& d) {
+                 std::ifstream in(source("modules/place_recognition/data/orb_k10l5.dvoc.gz"), std::ios::binary);
+                 std::string bytes(4096, '\0');
+                 in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+                 writeFile(d + "/cut.dvoc.gz", bytes);
+                 return "vocab info " + q(d + "/cut.dvoc.gz");
+               },
+               1, {"cut.dvoc.gz"}});
+  c.push_back({"atlas (`--load-atlas`)", "not an atlas file",
+               [](const std::string& d) {
+                 writeFile(d + "/atlas.bin", "garbage");
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(tinyScene()) + " --out " + q(d + "/out") +
+                        " --load-atlas " + q(d + "/atlas.bin") + " --no-progress";
+               },
+               1, {"atlas.bin is not a dslam atlas file"}});
+  c.push_back({"detector model", "weights file does not exist",
+               [](const std::string& d) {
+                 return "detect DarknetYoloDetector -p " + q("weights=" + d + "/none.weights") + " -p " +
+                        q("cfg=" + d + "/none.cfg") + " " + q(nthFile(tinyScene() + "/rgb", 0));
+               },
+               1, {"none."}});
+  c.push_back({"detector parameter", "unknown parameter on the command line",
+               [](const std::string& d) {
+                 (void)d;
+                 return "detect FileDetector -p path=x " + q(nthFile(tinyScene() + "/rgb", 0));
+               },
+               1, {"--param path", "unknown parameter of dslam::FileDetector"}});
+  c.push_back({"box label file (JSON)", "syntax error",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/labels/boxes");
+                 const std::string img = nthFile(tinyScene() + "/rgb", 0);
+                 writeFile(d + "/labels/boxes/" + fs::path(img).stem().string() + ".json",
+                           "{\"boxes\": [{\"category_id\": 1, \"bbox\": [1, 2, 3");
+                 return "detect FileDetector -p " + q("dir=" + d + "/labels") + " " + q(img);
+               },
+               1, {".json:1:", "invalid JSON"}});
+  c.push_back({"command line", "unknown option",
+               [](const std::string&) { return std::string("run --no-such-option x.yaml"); }, 109,
+               {"--no-such-option"}, "The following argument"});
+  return c;
+}
+
+/** Paths of this machine replaced by placeholders; lists of valid names shortened. */
+std::string normalize(std::string s, const std::string& dir) {
+  auto repl = [&](const std::string& from, const std::string& to) {
+    if (from.empty()) return;
+    for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+  };
+  repl(dir, "$DIR");
+  repl(tinyScene(), "$SCENE");
+  repl(fs::weakly_canonical(source("")).string(), "$SRC/");
+  repl(source(""), "$SRC/");
+  repl("$SRC//", "$SRC/");
+  s = std::regex_replace(s, std::regex(R"(\(valid( [A-Za-z]+ plugins)?: [^)]*\))"), "(valid$1: ...)");
+  return s;
+}
+
+/** The message line: the last line that starts with `prefix`. */
+std::string messageLine(const std::string& out, const std::string& prefix) {
+  std::istringstream in(out);
+  std::string line, found;
+  while (std::getline(in, line)) {
+    const size_t p = line.find(prefix);
+    if (p != std::string::npos && line.find_first_not_of(' ') == p) found = line;
+  }
+  return found;
+}
+
+std::string mdCell(std::string s) {
+  for (size_t p = s.find('|'); p != std::string::npos; p = s.find('|', p + 2)) s.replace(p, 1, "\\|");
+  return s;
+}
+
+TEST(BadInput, EveryCaseGivesItsMessageAndDocsErrorsIsCurrent) {
+  std::ostringstream md;
+  md << "# What dslam says about bad input\n\n"
+        "Generated by `tests/apps/test_bad_input.cpp` (`DSLAM_UPDATE_DOCS=1 build/tests/apps/test_bad_input`\n"
+        "rewrites this page; the test fails when the page and the program disagree). Every row is a\n"
+        "real run of the `dslam` command shown, on a bad copy of a small rendered scene or of a file\n"
+        "from the shared folder. `$DIR` is the case's folder, `$SCENE` a rendered 8-frame TUM-layout\n"
+        "scene, `$SRC` the source tree; lists of valid names are shortened to `(valid: ...)`.\n\n"
+        "Exit codes: 0 = success (a warning line says what was accepted or skipped), 1 = error\n"
+        "(nothing is left half-written: outputs written so far are complete, see\n"
+        "[slam.md](slam.md)), 109 = command-line syntax (CLI11), 128 + signal = stopped by\n"
+        "SIGINT/SIGTERM after writing every output.\n\n"
+        "| input | what is wrong | command | message | exit |\n|---|---|---|---|---|\n";
+  const auto all = cases();
+  ASSERT_GE(all.size(), 30u);
+  int k = 0;
+  for (const Case& c : all) {
+    const std::string dir = tempDir("bad_input_" + std::to_string(k++));
+    SCOPED_TRACE(c.input + ": " + c.wrong);
+    const std::string args = c.setup(dir);
+    const auto r = runDslam(args + " 2>&1");
+    EXPECT_EQ(r.exit_code, c.exit_code) << r.out;
+    const std::string msg = messageLine(r.out, c.line_prefix);
+    EXPECT_FALSE(msg.empty()) << "no line starting with '" << c.line_prefix << "' in:\n" << r.out;
+    EXPECT_LE(msg.size(), 700u) << "messages quote, they do not dump";
+    for (const auto& m : c.must) {
+      std::string want = m;
+      if (const size_t p = want.find("$DIR"); p != std::string::npos) want.replace(p, 4, dir);
+      EXPECT_NE(msg.find(want), std::string::npos) << "'" << want << "' not in: " << msg;
+    }
+    // No crash, no stack trace, no exception dump.
+    for (const char* bad : {"terminate called", "Segmentation", "MRPT exception", "Aborted", "backtrace"})
+      EXPECT_EQ(r.out.find(bad), std::string::npos) << bad << " in:\n" << r.out;
+    md << "| " << mdCell(c.input) << " | " << mdCell(c.wrong) << " | `dslam " << mdCell(normalize(args, dir))
+       << "` | `" << mdCell(normalize(msg, dir)) << "` | " << r.exit_code << " |\n";
+  }
+  const std::string page = source("docs/errors.md");
+  const char* update = std::getenv("DSLAM_UPDATE_DOCS");
+  if (update && std::string(update) == "1") {
+    writeFile(page, md.str());
+    return;
+  }
+  EXPECT_TRUE(readFile(page) == md.str())
+      << "docs/errors.md is out of date: run DSLAM_UPDATE_DOCS=1 build/tests/apps/test_bad_input\n" << md.str();
+}
+
+}  // namespace
+}  // namespace dslam::test
