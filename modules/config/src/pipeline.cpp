@@ -1,5 +1,7 @@
 #include "dslam/config/pipeline.h"
 
+#include <algorithm>
+
 #include <cstdlib>
 #include <mrpt/containers/yaml.h>
 
@@ -151,9 +153,20 @@ int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const Mo
   return static_cast<int>(n);
 }
 
+/** modules[i].detection: detectors only, auto | sync | async. */
+std::string loadDetectionMode(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc) {
+  static const std::vector<std::string> modes = {"auto", "sync", "async"};
+  const auto t = yamlu::scalarText(v).value_or("");
+  if (std::find(modes.begin(), modes.end(), t) == modes.end())
+    L.fail(kp + ".detection", &v, "expected auto, sync or async" + yamlu::didYouMean(t, modes) + ", got " + yamlu::describe(v));
+  if (mc.interface_name != std::string("Detector"))
+    L.fail(kp + ".detection", &v, "'detection' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+  return t;
+}
+
 /** One entry of `modules:` (key path `kp`), validated against its plug-in. */
 ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp) {
-  static const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every"};
+  static const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every", "detection"};
   if (!e.isMap()) L.fail(kp, &e, "expected a map {name, type, params, inputs}");
   for (const auto& kv : e.asMap()) {
     const std::string k = yamlu::scalarText(kv.first).value_or("");
@@ -187,6 +200,7 @@ ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp)
     L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
   mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
   if (const node_t* ev = yamlu::findValue(e, "every")) mc.every = loadEvery(L, *ev, kp, mc);
+  if (const node_t* dm = yamlu::findValue(e, "detection")) mc.detection = loadDetectionMode(L, *dm, kp, mc);
   if (const node_t* in = yamlu::findValue(e, "inputs")) {
     if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
     for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
@@ -317,7 +331,7 @@ std::string PipelineConfig::toYaml() const {
     o << "  - name: " << m.name << "\n    type: " << m.type << "\n    enabled: " << (m.enabled ? "true" : "false")
       << "\n";
     if (!m.inputs.empty()) o << "    inputs: [" << yamlu::join(m.inputs) << "]\n";
-    if (m.interface_name == std::string("Detector")) o << "    every: " << m.every << "\n";
+    if (m.interface_name == std::string("Detector")) o << "    every: " << m.every << "\n    detection: " << m.detection << "\n";
     o << "    params:" << paramsBlock(m.params, 6);
   }
   o << "outputs:" << paramsBlock(outputs, 2);

@@ -21,6 +21,12 @@ std::vector<ParamSpec> LocalMapperParams::specs() {
       P_double("found_ratio_min", d.found_ratio_min, "cull a recent point found in less than this fraction of the frames predicting it (ORB-SLAM2: 0.25)", 0, 1),
       P_bool("local_ba", d.local_ba, "run local bundle adjustment after each keyframe"),
       P_int("ba_iterations", d.ba_iterations, "local BA iterations after outlier removal (ORB-SLAM2: 10)", 1),
+      P_int("ba_max_keyframes", d.ba_max_keyframes,
+            "keyframes optimised by local BA: the new keyframe and its most covisible neighbours (ORB-SLAM2 takes "
+            "every covisible keyframe, which grows without bound when a scene makes keyframes pile up)", 2),
+      P_int("ba_max_fixed_keyframes", d.ba_max_fixed_keyframes,
+            "keyframes held fixed in local BA: of those that see the optimised points, the ones with the most "
+            "observations of them (ORB-SLAM2: all)", 1),
   };
 }
 
@@ -32,6 +38,8 @@ LocalMapperParams LocalMapperParams::fromParams(const Params& p) {
   m.found_ratio_min = static_cast<float>(p.getDouble("found_ratio_min"));
   m.local_ba = p.getBool("local_ba");
   m.ba_iterations = static_cast<int>(p.getInt("ba_iterations"));
+  m.ba_max_keyframes = static_cast<int>(p.getInt("ba_max_keyframes"));
+  m.ba_max_fixed_keyframes = static_cast<int>(p.getInt("ba_max_fixed_keyframes"));
   return m;
 }
 
@@ -301,6 +309,7 @@ void LocalMapper::searchInNeighbors() {
 
 void LocalMapper::localBundleAdjustment() {
   BAProblem prob;
+  size_t fixed_count = 0;
   std::vector<KeyFrame*> kfs;
   std::vector<MapPointPtr> pts;
   {
@@ -309,26 +318,35 @@ void LocalMapper::localBundleAdjustment() {
     if (kf->bad) return;
     std::vector<KeyFrame*> local = {kf};
     kf->ba_local_for_kf = kf->id;
-    for (KeyFrame* k : kf->covisibles())
+    for (KeyFrame* k : kf->covisibles()) {  // ordered by covisibility weight
+      if (static_cast<int>(local.size()) >= p_.ba_max_keyframes) break;
       if (!k->bad) {
         k->ba_local_for_kf = kf->id;
         local.push_back(k);
       }
+    }
     for (KeyFrame* k : local)
       for (const auto& mp : k->points)
         if (mp && !mp->bad && mp->ba_local_for_kf != kf->id) {
           mp->ba_local_for_kf = kf->id;
           pts.push_back(mp);
         }
-    std::vector<KeyFrame*> fixed;
+    // Fixed keyframes: those seeing local points, the ones with the most such observations first.
+    std::map<KeyFrame*, int> seen;
     for (const auto& mp : pts)
-      for (const auto& [kid, o] : mp->observations()) {
-        KeyFrame* k = o.first;
-        if (k->ba_local_for_kf != kf->id && k->ba_fixed_for_kf != kf->id && !k->bad) {
-          k->ba_fixed_for_kf = kf->id;
-          fixed.push_back(k);
-        }
-      }
+      for (const auto& [kid, o] : mp->observations())
+        if (o.first->ba_local_for_kf != kf->id && !o.first->bad) seen[o.first]++;
+    std::vector<std::pair<int, KeyFrame*>> by_obs;
+    for (const auto& [k, n] : seen) by_obs.push_back({n, k});
+    std::sort(by_obs.begin(), by_obs.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second->id < b.second->id;
+    });
+    std::vector<KeyFrame*> fixed;
+    for (const auto& [n, k] : by_obs) {
+      if (static_cast<int>(fixed.size()) >= p_.ba_max_fixed_keyframes) break;
+      k->ba_fixed_for_kf = kf->id;
+      fixed.push_back(k);
+    }
     std::sort(fixed.begin(), fixed.end(), [](KeyFrame* a, KeyFrame* b) { return a->id < b->id; });
     const int64_t origin_id = map_->origin() ? map_->origin()->id : -1;
     std::map<int64_t, int> kf_index;
@@ -337,6 +355,7 @@ void LocalMapper::localBundleAdjustment() {
       prob.keyframes.push_back({k->id, k->T_cw(), k->id == origin_id});
       kfs.push_back(k);
     }
+    fixed_count = fixed.size();
     for (KeyFrame* k : fixed) {
       kf_index[k->id] = static_cast<int>(prob.keyframes.size());
       prob.keyframes.push_back({k->id, k->T_cw(), true});
@@ -363,7 +382,12 @@ void LocalMapper::localBundleAdjustment() {
   if (prob.observations.empty()) return;
   BAOptions opt;
   opt.max_iterations = p_.ba_iterations;
+  if (worker_.running()) opt.abort = &abort_ba_;  // parallel: a new keyframe stops it (sequential: never)
   const BAResult r = backend_->bundleAdjust(prob, opt);
+  DSLAM_LOG(Debug, "local BA keyframe " << cur_->id << ": " << kfs.size() - fixed_count << " optimised + " << fixed_count
+                                        << " fixed keyframes, " << pts.size() << " points, " << prob.observations.size()
+                                        << " observations, " << r.iterations << " iterations, " << r.num_outliers
+                                        << " outliers, " << r.time_ms << " ms" << (r.aborted ? " (aborted)" : ""));
   if (!r.success) {
     DSLAM_LOG(Debug, "local BA failed: " << r.message);
     return;

@@ -191,8 +191,12 @@ std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const R
   auto sys = std::make_unique<System>(cam, sp, backend, pc.mode, maps);
   if (!ov.load_atlas.empty()) sys->loadMaps(ov.load_atlas);
   const auto detectors = pc.modulesOf("Detector");
-  for (const auto* m : detectors)
-    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every);
+  for (const auto* m : detectors) {
+    const auto dm = m->detection == "sync"    ? System::DetectionMode::Sync
+                    : m->detection == "async" ? System::DetectionMode::Async
+                                              : System::DetectionMode::Auto;
+    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm);
+  }
   for (const auto* m : pc.modulesOf("KeypointClassifier")) {
     auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));
     std::string input;

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <fstream>
 #include <future>
 #include <set>
@@ -13,6 +14,7 @@
 #include "dslam/map/atlas.h"
 #include "dslam/map/map.h"
 #include "dslam/place_recognition/vocabulary.h"
+#include "dslam/slam/detection_carry.h"
 
 namespace dslam {
 
@@ -82,24 +84,31 @@ namespace dslam {
 // ---------------------------------------------------------------------------
 // Detector slot. Parallel mode: detect() runs on a dslam::Worker thread
 // concurrently with ORB extraction; the result (or the exception) comes back
-// through a promise, so the tracking thread waits without busy waiting.
+// through a promise. Sync: the tracking thread waits for it. Async: it takes
+// the latest finished result and carries it to the current frame by optical
+// flow (detection_carry.h); a new job starts whenever the worker is free.
 // ---------------------------------------------------------------------------
 
 struct System::DetectorSlot {
   struct Job {
-    const SensorFrame* frame = nullptr;
+    SensorFrame frame;  ///< shallow copy: an asynchronous job outlives the caller's frame
     std::promise<std::pair<Detections, double>> result;  ///< detections, ms
   };
 
   std::string name;
   std::shared_ptr<Detector> det;
   int every = 1;
-  Detections last;  ///< reused on skipped frames
+  bool async = false;
+  Detections last;    ///< the latest detections given to a frame (carried forward)
+  cv::Mat last_gray;  ///< grey image `last` describes
   std::future<std::pair<Detections, double>> pending;
+  cv::Mat pending_gray;  ///< grey image of the frame the pending job detects
+  bool submitted_now = false, fresh = false, ran = false;
   Worker<Job> worker{[this](Job& j) {
     try {
       const double t0 = nowSeconds();
-      Detections d = det->detect(*j.frame);
+      Detections d = det->detect(j.frame);
+      d.frame_index = j.frame.index;
       j.result.set_value({std::move(d), (nowSeconds() - t0) * 1e3});
     } catch (...) {
       j.result.set_exception(std::current_exception());
@@ -108,9 +117,12 @@ struct System::DetectorSlot {
 
   void submit(const SensorFrame& f) {
     Job j;
-    j.frame = &f;
+    j.frame = f;
     pending = j.result.get_future();
     worker.push(std::move(j));
+  }
+  bool pendingReady() const {
+    return pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
   }
   /** Detections of the submitted frame; rethrows the detector's exception. */
   Detections wait(double& out_ms) {
@@ -276,12 +288,19 @@ System::~System() { shutdown(); }
 
 MapPtr System::map() const { return maps_->currentMap(); }
 
-void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every) {
+void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every, DetectionMode detection) {
   auto s = std::make_unique<DetectorSlot>();
   s->name = name;
   s->det = std::move(det);
   s->every = std::max(1, every);
-  if (mode_ == config::Mode::Parallel) s->worker.start();
+  const bool parallel = mode_ == config::Mode::Parallel;
+  s->async = parallel && (detection == DetectionMode::Async ||
+                          (detection == DetectionMode::Auto && !s->det->precomputed()));
+  if (detection == DetectionMode::Async && !parallel)
+    DSLAM_LOG(Info, "detector '" << name << "': detection: async needs mode: parallel; runs synchronously");
+  if (s->async && s->every > 1)
+    DSLAM_LOG(Info, "detector '" << name << "': every: " << s->every << " is ignored with asynchronous detection");
+  if (parallel) s->worker.start();
   detectors_.push_back(std::move(s));
 }
 
@@ -305,11 +324,26 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
   const int fi = in.index;
   // Detectors start first (parallel mode: concurrently with ORB extraction).
   dets.assign(detectors_.size(), Detections{});
-  std::vector<char> ran(detectors_.size(), 0);
-  for (size_t d = 0; d < detectors_.size(); d++) {
-    auto& s = *detectors_[d];
+  for (auto& sp : detectors_) {
+    auto& s = *sp;
+    s.submitted_now = s.fresh = s.ran = false;
+    if (s.async) {
+      // The first frame waits for its detection: a map must not start on undetected movers.
+      if (s.pending.valid() && (s.pendingReady() || s.last_gray.empty())) {
+        double ms = 0;
+        s.last = s.wait(ms);
+        s.last_gray = s.pending_gray;
+        s.fresh = true;
+        timer_.add("detector", s.last.frame_index, ms);
+      }
+      if (!s.pending.valid()) {
+        s.submit(in);
+        s.submitted_now = true;
+      }
+      continue;
+    }
     if (static_cast<int>(frames_) % s.every != 0) continue;
-    ran[d] = 1;
+    s.ran = true;
     if (mode_ == config::Mode::Parallel) s.submit(in);
   }
   Frame f;
@@ -320,25 +354,44 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     }
     for (size_t d = 0; d < detectors_.size(); d++) {
       auto& s = *detectors_[d];
-      if (!ran[d]) {
-        dets[d] = s.last;
-        continue;
+      if (s.async) {
+        if (s.submitted_now) s.pending_gray = f.gray;
+        if (s.last_gray.empty() && s.submitted_now && frames_ == 0) {  // first frame: wait once
+          double ms = 0;
+          s.last = s.wait(ms);
+          s.last.frame_index = fi;
+          s.last_gray = f.gray;
+          timer_.add("detector", fi, ms);
+        }
       }
-      double ms = 0;
-      if (mode_ == config::Mode::Parallel) {
-        auto t = timer_.scope("detector_wait", fi);
-        dets[d] = s.wait(ms);
+      if (!s.async && s.ran) {
+        double ms = 0;
+        if (mode_ == config::Mode::Parallel) {
+          auto t = timer_.scope("detector_wait", fi);
+          dets[d] = s.wait(ms);
+        } else {
+          const double td = nowSeconds();
+          dets[d] = s.det->detect(in);
+          ms = (nowSeconds() - td) * 1e3;
+        }
+        timer_.add("detector", fi, ms);
+        dets[d].frame_index = fi;
+        dets[d].age_frames = 0;
+      } else if (!s.last_gray.empty()) {
+        // Async, or a frame between two runs of an every-N detector: the
+        // latest detections carried from the image they describe to this one.
+        auto t = timer_.scope("detection_carry", fi);
+        dets[d] = carryDetections(s.last, s.last_gray, f.gray, fi - s.last.frame_index);
       } else {
-        const double td = nowSeconds();
-        dets[d] = s.det->detect(in);
-        ms = (nowSeconds() - td) * 1e3;
+        dets[d].valid = false;  // no detection yet
       }
-      timer_.add("detector", fi, ms);
-      dets[d].frame_index = fi;
-      s.last = dets[d];
+      if (dets[d].valid) {
+        s.last = dets[d];
+        s.last_gray = f.gray;
+      }
     }
   } catch (...) {
-    // Detector threads still read `in`: let them finish before it goes away.
+    // Detector threads still work on their copies of the frame: let them finish.
     for (auto& s : detectors_)
       if (s->pending.valid()) s->pending.wait();
     throw;

@@ -30,6 +30,20 @@ struct CeresBackend::Settings : backends::CommonSettings {
 
 namespace {
 
+/** Ends a solve with its best estimate when the caller's abort flag is set
+ *  (ORB-SLAM's g2o setForceStopFlag). */
+class AbortCallback : public ceres::IterationCallback {
+ public:
+  explicit AbortCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return flag_ && flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                          : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* flag_;
+};
+
 // Parameter block of a pose: [qx qy qz qw tx ty tz] (Eigen quaternion
 // coefficient order, then translation).
 constexpr int kPoseSize = 7;
@@ -325,6 +339,8 @@ BAResult CeresBackend::bundleAdjust(BAProblem& problem, const BAOptions& opt_in)
       so.linear_solver_ordering = ordering;
     }
 
+    AbortCallback abort_cb(opt.abort);
+    if (opt.abort) so.callbacks.push_back(&abort_cb);
     ceres::Solver::Summary sum;
     ceres::Solve(so, &P, &sum);
     if (opt.verbose) DSLAM_LOG(Info, "CeresBackend BA pass: " << sum.BriefReport());

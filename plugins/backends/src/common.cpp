@@ -140,6 +140,7 @@ double elapsedMs(double t0) { return (nowSeconds() - t0) * 1e3; }
 
 void finishResult(BAResult& res, const BAProblem& p, const BAOptions& opt, const std::string& log, double t0) {
   res.final_cost = evaluateCost(p, opt);
+  res.aborted = abortRequested(opt);
   res.message = log;
   if (res.message.size() >= 2) res.message.resize(res.message.size() - 2);
   res.time_ms = elapsedMs(t0);

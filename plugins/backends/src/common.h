@@ -43,10 +43,14 @@ double observationChi2(const BAProblem& p, const BAObservation& o, bool* depth_o
  *  camera. Returns the number of observations newly flagged. */
 int markOutliers(BAProblem& p, const CommonSettings& s);
 
+/** BAOptions::abort is set. */
+inline bool abortRequested(const BAOptions& o) { return o.abort && o.abort->load(std::memory_order_relaxed); }
+
 /** ORB-SLAM's outlier scheme around one optimisation pass
  *  `pass(iterations, robust) -> bool`: with opt.reject_outliers, a robust
  *  first pass of s.first_pass_iterations, the chi2 test, a second pass without
- *  the robust kernel and the test again; otherwise one pass. Adds the flagged
+ *  the robust kernel and the test again (skipped when opt.abort is set after
+ *  the first); otherwise one pass. Adds the flagged
  *  observations to *num_outliers; returns whether every pass succeeded. */
 template <class Pass>
 bool optimizeWithOutlierRejection(BAProblem& p, const CommonSettings& s, const BAOptions& opt, Pass&& pass,
@@ -54,6 +58,7 @@ bool optimizeWithOutlierRejection(BAProblem& p, const CommonSettings& s, const B
   if (!opt.reject_outliers) return pass(opt.max_iterations, opt.robust);
   if (!pass(s.first_pass_iterations, opt.robust)) return false;
   *num_outliers += markOutliers(p, s);
+  if (abortRequested(opt)) return true;  // ORB-SLAM: no second pass once stopped
   if (!pass(opt.max_iterations, false)) return false;
   *num_outliers += markOutliers(p, s);
   return true;

@@ -33,7 +33,10 @@ struct ModuleConfig {
   Params params;
   std::vector<std::string> inputs;
   bool enabled = true;
-  int every = 1;  ///< detectors: run on every N-th frame (the last result is reused in between)
+  int every = 1;  ///< detectors: run on every N-th frame (the last result is carried in between)
+  /** detectors: "auto" | "sync" | "async" (System::DetectionMode; async =
+   *  tracking never waits for the detector, parallel mode only). */
+  std::string detection = "auto";
   SourceLocation where;
 };
 

@@ -10,6 +10,7 @@
  *  kernel on s (rho(s) = s if s <= d^2, else 2 d sqrt(s) - d^2), d =
  *  huber_mono or huber_stereo. This equals g2o's chi2 and twice Ceres'
  *  HuberLoss cost. evaluateCost() computes it. */
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -62,6 +63,12 @@ struct BAOptions {
   bool reject_outliers = true;      ///< ORB-SLAM: optimise 5 it, drop chi2 outliers, optimise again
   int num_threads = 1;
   bool verbose = false;
+  /** Stop request, read between solver iterations (parallel local mapping
+   *  sets it when a new keyframe arrives, as ORB-SLAM's mbAbortBA): the pass
+   *  running ends with its best estimate so far and no further pass starts.
+   *  nullptr = never stops early (sequential mode: results do not depend on
+   *  timing). */
+  const std::atomic<bool>* abort = nullptr;
 };
 
 struct BAResult {
@@ -69,6 +76,7 @@ struct BAResult {
   double initial_cost = 0, final_cost = 0;  ///< evaluateCost() before / after
   int iterations = 0;
   int num_outliers = 0;
+  bool aborted = false;  ///< stopped early by BAOptions::abort
   double time_ms = 0;
   std::string message;
 };

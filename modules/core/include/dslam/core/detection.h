@@ -35,9 +35,14 @@ struct PanopticSegment {
 /** Everything a detector produced for one frame. Fields a detector does not
  *  fill stay empty. */
 struct Detections {
-  int frame_index = -1;
+  int frame_index = -1;  ///< frame the detector saw
   double timestamp = 0;
   bool valid = true;  ///< false when the detector skipped this frame (no output)
+  /** Frames between the image the detector saw and the frame these
+   *  detections are given with: 0 = its own detection; > 0 = an older one
+   *  carried to this frame by optical flow (asynchronous detection, or
+   *  `every: N` in between), see dslam/slam/detection_carry.h. */
+  int age_frames = 0;
   std::vector<BoundingBox> boxes;
   cv::Mat semantic;   ///< CV_8U, COCO id per pixel, 255 = none (empty if not produced)
   cv::Mat panoptic;   ///< CV_32S segment id per pixel, 0 = void (empty if not produced)

@@ -19,6 +19,10 @@ class Detector : public Plugin {
   virtual Detections detect(const SensorFrame& frame) = 0;
   /** DetectorOutput flags. */
   virtual unsigned outputs() const = 0;
+  /** True when detect() only reads results computed beforehand (files,
+   *  ground truth) and costs next to nothing: `detection: auto` then runs it
+   *  synchronously also in parallel mode. */
+  virtual bool precomputed() const { return false; }
 };
 
 }  // namespace dslam

@@ -29,6 +29,8 @@ struct LocalMapperParams {
   float found_ratio_min = 0.25f;      ///< recent point culled if found/visible below
   bool local_ba = true;
   int ba_iterations = 10;             ///< second pass iterations (first pass 5, ORB-SLAM)
+  int ba_max_keyframes = 20;          ///< optimised keyframes: the new one + its best covisibles
+  int ba_max_fixed_keyframes = 20;    ///< fixed keyframes: those seeing the most local points
   bool monocular = false;
 
   static std::vector<ParamSpec> specs();

@@ -74,8 +74,16 @@ class System {
   System(const System&) = delete;
   System& operator=(const System&) = delete;
 
-  /** Adds a detector; classifiers name it as their input (first one by default). */
-  void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1);
+  /** How a detector's results reach the frames (`detection:` of a module). */
+  enum class DetectionMode {
+    Auto,   ///< Async in parallel mode for detectors that are not precomputed(), else Sync
+    Sync,   ///< each frame waits for its own detection (every N-th frame: carried in between)
+    Async,  ///< parallel mode: tracking never waits; the latest finished detection is carried to each frame
+  };
+  /** Adds a detector; classifiers name it as their input (first one by default).
+   *  Sequential mode is always Sync (deterministic). */
+  void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1,
+                   DetectionMode detection = DetectionMode::Auto);
   /** Appends a classifier to the chain; `detector` = "" uses the first detector. */
   void addClassifier(const std::string& name, std::shared_ptr<KeypointClassifier> c, const std::string& detector = "");
 

@@ -77,6 +77,7 @@ class FileDetector : public Detector {
   void configure(const Params& p, const PluginContext& ctx) override;
   Detections detect(const SensorFrame& frame) override;
   unsigned outputs() const override { return src_.outputs(); }
+  bool precomputed() const override { return true; }
   const LabelSource& source() const { return src_; }
   /** Frames seen so far whose label files were (partly) missing. */
   size_t missingCount() const { return missing_; }

@@ -50,6 +50,7 @@ class GroundTruthDetector : public Detector {
   void configure(const Params& p, const PluginContext& ctx) override;
   Detections detect(const SensorFrame& frame) override;
   unsigned outputs() const override { return src_.outputs(); }
+  bool precomputed() const override { return true; }
   const Degradation& degradation() const { return deg_; }
 
  private:

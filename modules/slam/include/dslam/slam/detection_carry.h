@@ -1,0 +1,45 @@
+#pragma once
+/** \file detection_carry.h
+ *  Carrying detections to a later frame. When a detector runs
+ *  asynchronously (tracking does not wait for it) or on every N-th frame
+ *  only, its last result describes an older image; classifiers get it moved
+ *  to where the objects are now. Each region (box, panoptic segment,
+ *  connected region of a semantic class) is moved by the median optical
+ *  flow of corners inside it (pyramidal Lucas-Kanade, forward-backward
+ *  checked), boxes also scaled by the median change of the corners'
+ *  spread. A region without enough trackable corners stays where it was. */
+#include <opencv2/core.hpp>
+
+#include "dslam/core/detection.h"
+
+namespace dslam {
+
+struct CarryParams {
+  int max_corners = 30;          ///< corners tracked per region
+  double inner_fraction = 0.6;   ///< boxes: corners from the central part (less background)
+  int min_points = 4;            ///< fewer tracked corners: the region is not moved
+  int lk_levels = 4;             ///< pyramid levels of the flow (motions up to ~80 px)
+  int lk_window = 21;            ///< window side, pixels
+  double max_fb_error = 1.0;     ///< forward-backward error above which a corner is dropped, pixels
+};
+
+/** How one region moved from one image to the next. */
+struct RegionMotion {
+  cv::Point2f shift{0, 0};
+  float scale = 1.f;
+  int points = 0;  ///< corners that passed the forward-backward check
+};
+
+/** The motion of the region `mask` (CV_8U, non-zero = inside; or empty =
+ *  the whole `roi`) inside `roi` from grey image `from` to `to`. */
+RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect& roi, const cv::Mat& mask,
+                          const CarryParams& p = {});
+
+/** `d` (made on grey image `from`) moved to grey image `to`; age_frames is
+ *  set to `age`. Boxes, panoptic segments (ids and their bounding boxes) and
+ *  semantic regions are moved; pixels a moved region leaves become void
+ *  (panoptic 0, semantic 255). */
+Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::Mat& to, int age,
+                           const CarryParams& p = {});
+
+}  // namespace dslam

@@ -1,0 +1,122 @@
+// Carrying detections to a later frame (asynchronous detection, every-N).
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "dslam/slam/detection_carry.h"
+
+namespace dslam {
+namespace {
+
+/** Random texture with fine and coarse structure, like a real image
+ *  (corners everywhere, and something for the coarse pyramid levels). */
+cv::Mat texture(cv::Size s, uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat sum(s, CV_32F, cv::Scalar(0));
+  for (double sigma : {1.5, 4.0, 10.0}) {
+    cv::Mat noise(s, CV_32F), t;
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 1);
+    cv::GaussianBlur(noise, t, cv::Size(0, 0), sigma);
+    cv::normalize(t, t, 0, 1, cv::NORM_MINMAX);
+    sum += t;
+  }
+  cv::Mat out;
+  cv::normalize(sum, sum, 0, 255, cv::NORM_MINMAX);
+  sum.convertTo(out, CV_8U);
+  return out;
+}
+
+/** Background with an object patch pasted at `at` (top-left), scaled by `scale`. */
+cv::Mat scene(const cv::Mat& bg, const cv::Mat& obj, cv::Point2f at, double scale = 1.0) {
+  cv::Mat im = bg.clone();
+  cv::Mat o;
+  cv::resize(obj, o, cv::Size(), scale, scale, cv::INTER_LINEAR);
+  o.copyTo(im(cv::Rect(cvRound(at.x), cvRound(at.y), o.cols, o.rows)));
+  return im;
+}
+
+struct Fixture {
+  cv::Mat bg = texture({640, 480}, 1), obj = texture({120, 200}, 2);
+};
+
+TEST(DetectionCarry, BoxMovesWithItsObject) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  const cv::Mat b = scene(fx.bg, fx.obj, {212, 143});  // the object moved by (12, -7); the background did not
+  Detections d;
+  d.frame_index = 10;
+  d.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, 3});
+  const Detections c = carryDetections(d, a, b, 2);
+  ASSERT_EQ(c.boxes.size(), 1u);
+  EXPECT_NEAR(c.boxes[0].box.x, 212, 1.0);
+  EXPECT_NEAR(c.boxes[0].box.y, 143, 1.0);
+  EXPECT_NEAR(c.boxes[0].box.width, 120, 2.0);
+  EXPECT_NEAR(c.boxes[0].box.height, 200, 2.0);
+  EXPECT_EQ(c.age_frames, 2);
+  EXPECT_EQ(c.frame_index, 10);  // still says which image the detector saw
+  EXPECT_EQ(c.boxes[0].class_id, 1);
+  EXPECT_EQ(c.boxes[0].instance_id, 3);
+}
+
+TEST(DetectionCarry, BoxFollowsAnApproachingObject) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  const cv::Mat b = scene(fx.bg, fx.obj, {194, 140}, 1.1);  // 10% larger, centre moved by (0, 0)
+  Detections d;
+  d.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  const Detections c = carryDetections(d, a, b, 1);
+  const auto& r = c.boxes[0].box;
+  EXPECT_NEAR(r.width / 120.f, 1.1f, 0.03f);
+  EXPECT_NEAR(r.x + r.width / 2, 194 + 66, 1.5);
+  EXPECT_NEAR(r.y + r.height / 2, 140 + 110, 1.5);
+}
+
+TEST(DetectionCarry, StaticImageLeavesEverythingInPlace) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  Detections d;
+  d.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  const Detections c = carryDetections(d, a, a.clone(), 1);
+  EXPECT_NEAR(c.boxes[0].box.x, 200, 0.1);
+  EXPECT_NEAR(c.boxes[0].box.y, 150, 0.1);
+}
+
+TEST(DetectionCarry, TexturelessRegionStaysPut) {
+  cv::Mat a(480, 640, CV_8U, cv::Scalar(128)), b = a.clone();
+  Detections d;
+  d.boxes.push_back({cv::Rect2f(100, 100, 50, 50), 1, 0.9f, -1});
+  const Detections c = carryDetections(d, a, b, 1);
+  EXPECT_FLOAT_EQ(c.boxes[0].box.x, 100.f);
+  EXPECT_EQ(regionMotion(a, b, cv::Rect(100, 100, 50, 50), cv::Mat()).points, 0);
+}
+
+TEST(DetectionCarry, MasksMoveWithTheirRegions) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  const cv::Mat b = scene(fx.bg, fx.obj, {215, 150});  // object +15 px in x
+  Detections d;
+  d.panoptic = cv::Mat::zeros(480, 640, CV_32S);
+  d.panoptic(cv::Rect(200, 150, 120, 200)).setTo(7);     // the object
+  d.panoptic(cv::Rect(400, 50, 100, 100)).setTo(9);      // a static region
+  PanopticSegment s7, s9;
+  s7.id = 7;
+  s7.bbox = cv::Rect(200, 150, 120, 200);
+  s9.id = 9;
+  s9.bbox = cv::Rect(400, 50, 100, 100);
+  d.segments = {s7, s9};
+  d.semantic = cv::Mat(480, 640, CV_8U, cv::Scalar(255));
+  d.semantic(cv::Rect(200, 150, 120, 200)).setTo(1);  // person
+  const Detections c = carryDetections(d, a, b, 1);
+  // The object's pixels moved by 15 in x; the static region did not.
+  EXPECT_EQ(c.panoptic.at<int32_t>(250, 330), 7);   // was outside (x = 330 > 319), now inside
+  EXPECT_EQ(c.panoptic.at<int32_t>(250, 205), 0);   // left edge uncovered
+  EXPECT_EQ(c.panoptic.at<int32_t>(100, 450), 9);
+  EXPECT_EQ(c.segments[0].bbox, cv::Rect(215, 150, 120, 200));
+  EXPECT_EQ(c.segments[1].bbox, cv::Rect(400, 50, 100, 100));
+  EXPECT_EQ(c.semantic.at<uchar>(250, 330), 1);
+  EXPECT_EQ(c.semantic.at<uchar>(250, 205), 255);
+  EXPECT_EQ(cv::countNonZero(c.semantic == 1), 120 * 200);
+}
+
+}  // namespace
+}  // namespace dslam
