@@ -17,6 +17,8 @@
 #include <mutex>
 
 #include <opencv2/core/utility.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "dslam/core/camera_presets.h"
@@ -34,7 +36,34 @@ struct Data {
   CameraModel cam;
   Frame f[2];
   Detections d[2];
+  SE3 T_wc[2];  ///< camera poses (frame 0 = world), from PnP-RANSAC on ORB matches: the motion-model prior
 };
+
+/** Pose of frame 1 relative to frame 0 by PnP-RANSAC on brute-force ORB
+ *  matches with frame 0's depth (independent of dslam's tracker). */
+SE3 relativePose(const CameraModel& cam, const Frame& a, const Frame& b) {
+  cv::BFMatcher bf(cv::NORM_HAMMING, true);
+  std::vector<cv::DMatch> m;
+  bf.match(a.descriptors, b.descriptors, m);
+  std::vector<cv::Point3f> X;
+  std::vector<cv::Point2f> x;
+  for (const auto& d : m) {
+    const float z = a.depth[d.queryIdx];
+    if (z <= 0 || d.distance > 50) continue;
+    const cv::Point2f& u = a.keypoints_un[d.queryIdx].pt;
+    X.emplace_back(static_cast<float>((u.x - cam.left.cx) / cam.left.fx * z),
+                   static_cast<float>((u.y - cam.left.cy) / cam.left.fy * z), z);
+    x.push_back(b.keypoints_un[d.trainIdx].pt);
+  }
+  const cv::Mat K = (cv::Mat_<double>(3, 3) << cam.left.fx, 0, cam.left.cx, 0, cam.left.fy, cam.left.cy, 0, 0, 1);
+  cv::Mat rvec, tvec, R;
+  cv::solvePnPRansac(X, x, K, cv::noArray(), rvec, tvec, false, 500, 2.0f, 0.999);
+  cv::Rodrigues(rvec, R);
+  Eigen::Matrix3d Re;
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) Re(r, c) = R.at<double>(r, c);
+  return SE3(Re, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2))).inverse();  // T_w(=a) b
+}
 
 Detections labels(int index) {
   Detections d;
@@ -84,6 +113,7 @@ const Data& data() {
       x.f[k] = fe.process(in);
       x.d[k] = labels(k);
     }
+    x.T_wc[1] = relativePose(x.cam, x.f[0], x.f[1]);
     return x;
   }();
   return D;
@@ -114,7 +144,8 @@ void run(benchmark::State& st, const std::string& name, const std::string& yaml 
     ctx.camera = &D.cam;
     ctx.previous = &f[prev];
     ctx.previous_detections = &D.d[prev];
-    ctx.previous_T_wc = SE3();
+    ctx.previous_T_wc = D.T_wc[prev];
+    ctx.predicted_T_wc = D.T_wc[cur];  // a perfect motion model
     c->classify(fr, D.d[cur], ctx);
     if (after) c->afterTracking(fr, D.d[cur], SE3());
     dyn += fr.countLabel(KpLabel::Dynamic);
@@ -149,6 +180,20 @@ void BM_EpipolarDescriptors(benchmark::State& st) { run(st, "EpipolarConsistency
 void BM_EpipolarDescriptorsFast(benchmark::State& st) {
   run(st, "EpipolarConsistency", std::string(kFastRansac) + "matching: descriptors\nsearch_radius: 80");
 }
+// The settings of the shipped pipelines (config/pipelines/*.yaml): motion-model prior, few LK levels.
+const char* kPrior = "motion_prior: true\n";
+void BM_EpipolarFlowShipped(benchmark::State& st) {
+  // DSLAM_BENCH_FLOW_PARAMS (YAML lines) replaces the LK settings, for tuning.
+  const char* env = std::getenv("DSLAM_BENCH_FLOW_PARAMS");
+  const std::string lk = env ? env : "lk_window: 15\nlk_levels: 1\nlk_iterations: 10\n";
+  run(st, "EpipolarConsistency", std::string(kPrior) + lk + "\nmax_fit_points: 300");
+}
+void BM_EpipolarDescriptorsShipped(benchmark::State& st) {
+  run(st, "EpipolarConsistency", std::string(kPrior) + "matching: descriptors\nsearch_radius: 80\nmax_fit_points: 300");
+}
+void BM_PanopticClassifierShipped(benchmark::State& st) {
+  run(st, "PanopticClassifier", std::string(kPrior) + "search_radius: 80\nmax_fit_points: 300");
+}
 void BM_PanopticClassifier(benchmark::State& st) { run(st, "PanopticClassifier"); }
 void BM_PanopticClassifierFast(benchmark::State& st) {
   run(st, "PanopticClassifier", std::string(kFastRansac) + "search_radius: 80");
@@ -170,6 +215,9 @@ BENCHMARK(BM_EpipolarDescriptors)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EpipolarDescriptorsFast)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PanopticClassifier)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PanopticClassifierFast)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EpipolarFlowShipped)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EpipolarDescriptorsShipped)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PanopticClassifierShipped)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EkfObjectTracker)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -234,6 +234,13 @@ std::vector<ParamSpec> ransacParamSpecs(double default_threshold, const std::str
             0, 1000000),
       P_enum("ransac_method", "ransac", {"ransac", "usac"},
              "ransac: cv::FM_RANSAC (the papers); usac: cv::USAC_FM_8PTS (OpenCV 4.5+, faster, also deterministic)"),
+      P_bool("motion_prior", false,
+             "use the motion model's predicted camera motion (not in the papers): RANSAC runs only on the "
+             "correspondences near the predicted epipolar lines, with prior_iterations; LK flow starts at the "
+             "predicted position"),
+      P_double("prior_gate", 2.0, "motion_prior: correspondences farther than this (px) from the predicted epipolar "
+                                  "line are not used to fit", 0.01, 1000),
+      P_int("prior_iterations", 50, "motion_prior: RANSAC iteration cap on the gated correspondences", 1, 1000000),
   };
 }
 
@@ -245,6 +252,9 @@ RansacParams ransacParams(const Params& p) {
   r.min_matches = static_cast<int>(p.getInt("min_fit_matches"));
   r.max_points = static_cast<int>(p.getInt("max_fit_points"));
   r.usac = p.getString("ransac_method") == "usac";
+  r.motion_prior = p.getBool("motion_prior");
+  r.prior_gate = p.getDouble("prior_gate");
+  r.prior_iterations = static_cast<int>(p.getInt("prior_iterations"));
   if (r.max_points > 0 && r.max_points < 8)
     throw ConfigError(where(p) + "parameter 'max_fit_points': at least 8 (or 0 = all)");
   return r;
@@ -258,8 +268,56 @@ std::vector<int> evenSubset(const std::vector<int>& v, int n) {
   return out;
 }
 
+cv::Point2f MotionPrior::previousPixel(const cv::Point2f& un, double z, double z_far) const {
+  const double d = z > 0 ? z : z_far;
+  const Eigen::Vector3d Xc((un.x - cx) / fx * d, (un.y - cy) / fy * d, d);
+  const Eigen::Vector3d Xp = T_cur_prev.inverse() * Xc;
+  if (Xp.z() <= 1e-6) return un;
+  return {static_cast<float>(fx * Xp.x() / Xp.z() + cx), static_cast<float>(fy * Xp.y() / Xp.z() + cy)};
+}
+
+MotionPrior motionPrior(const ClassifierContext& ctx) {
+  MotionPrior m;
+  if (!ctx.camera || !ctx.predicted_T_wc || !ctx.previous_T_wc) return m;
+  const auto& L = ctx.camera->left;
+  if (!(L.fx > 0) || !(L.fy > 0)) return m;
+  m.fx = L.fx;
+  m.fy = L.fy;
+  m.cx = L.cx;
+  m.cy = L.cy;
+  m.T_cur_prev = ctx.predicted_T_wc->inverse() * *ctx.previous_T_wc;
+  const Eigen::Vector3d t = m.T_cur_prev.translation();
+  if (t.norm() < 1e-9) return m;  // no translation: no epipolar geometry
+  const Eigen::Matrix3d R = m.T_cur_prev.rotation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  Eigen::Matrix3d Ki;
+  Ki << 1 / L.fx, 0, -L.cx / L.fx, 0, 1 / L.fy, -L.cy / L.fy, 0, 0, 1;
+  const Eigen::Matrix3d F = Ki.transpose() * tx * R * Ki;
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) m.F(r, c) = F(r, c);
+  m.ok = true;
+  return m;
+}
+
 FundamentalFit fitFundamental(const std::vector<cv::Point2f>& prev, const std::vector<cv::Point2f>& cur,
-                              const RansacParams& rp) {
+                              const RansacParams& rp, const MotionPrior* prior) {
+  if (rp.motion_prior && prior && prior->ok) {
+    std::vector<cv::Point2f> a, b;
+    for (size_t i = 0; i < prev.size(); i++)
+      if (epipolarDistance(prior->F, prev[i], cur[i]) < rp.prior_gate) {
+        a.push_back(prev[i]);
+        b.push_back(cur[i]);
+      }
+    if (static_cast<int>(a.size()) >= std::max(8, rp.min_matches)) {
+      RansacParams gated = rp;
+      gated.motion_prior = false;
+      gated.max_iterations = rp.prior_iterations;
+      FundamentalFit r = fitFundamental(a, b, gated);
+      r.matches = static_cast<int>(prev.size());
+      return r;
+    }
+  }
   FundamentalFit r;
   r.matches = static_cast<int>(prev.size());
   if (r.matches < std::max(8, rp.min_matches)) return r;

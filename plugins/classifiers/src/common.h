@@ -15,6 +15,7 @@
 #include "dslam/core/frame.h"
 #include "dslam/core/keypoint_classifier.h"
 #include "dslam/core/params.h"
+#include "dslam/core/se3.h"
 
 namespace dslam::cls {
 
@@ -158,14 +159,39 @@ struct RansacParams {
   int min_matches = 41;
   int max_points = 0;       ///< evenly subsample larger sets to this many (0 = all)
   bool usac = false;        ///< cv::USAC_FM_8PTS instead of cv::FM_RANSAC
+  bool motion_prior = false;  ///< use the motion model's prediction (MotionPrior) when there is one
+  double prior_gate = 2.0;    ///< with a prior: fit only on correspondences within this distance (px) of its epipolar lines
+  int prior_iterations = 50;  ///< with a prior: RANSAC iteration cap on the gated correspondences
 };
+
+/** The motion model's prediction of how the camera moved from the previous
+ *  frame to this one (ClassifierContext::previous_T_wc and predicted_T_wc),
+ *  as the relative pose and the fundamental matrix of undistorted pixels
+ *  (cur^T F prev = 0). `ok` = both poses are known and the camera moved. */
+struct MotionPrior {
+  bool ok = false;
+  SE3 T_cur_prev;  ///< X_cur = T_cur_prev * X_prev
+  cv::Matx33d F;
+  double fx = 0, fy = 0, cx = 0, cy = 0;  ///< undistorted pinhole
+  /** Predicted undistorted pixel in the previous image of undistorted pixel
+   *  `un` of this frame at depth `z` (> 0), or without depth (z <= 0) at the
+   *  scene depth `z_far`. */
+  cv::Point2f previousPixel(const cv::Point2f& un, double z, double z_far) const;
+};
+MotionPrior motionPrior(const ClassifierContext& ctx);
+
+/** Fundamental matrix of the correspondences. With rp.motion_prior and a
+ *  prior (`prior` not null, ok): RANSAC (rp.prior_iterations) on the
+ *  correspondences within rp.prior_gate px of the predicted epipolar lines;
+ *  it falls back to the plain fit when fewer than rp.min_matches pass. */
 FundamentalFit fitFundamental(const std::vector<cv::Point2f>& prev, const std::vector<cv::Point2f>& cur,
-                              const RansacParams& rp);
+                              const RansacParams& rp, const MotionPrior* prior = nullptr);
 RansacParams ransacParams(const Params& p);
 /** At most `n` entries of `v`, evenly spaced (all if n <= 0 or v is smaller). */
 std::vector<int> evenSubset(const std::vector<int>& v, int n);
 /** ransac_threshold, ransac_confidence, ransac_max_iterations,
- *  min_fit_matches, max_fit_points (defaults of the papers' code). */
+ *  min_fit_matches, max_fit_points, ransac_method (defaults of the papers'
+ *  code) and motion_prior, prior_gate, prior_iterations (off by default). */
 std::vector<ParamSpec> ransacParamSpecs(double default_threshold, const std::string& source);
 
 /** Distance (pixels) of `cur` to the epipolar line F * prev. */

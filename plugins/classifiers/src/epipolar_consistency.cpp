@@ -52,8 +52,8 @@ struct EpipolarConsistency::Impl {
   Sets regions(const Frame& frame, const Detections& det, const CameraModel* cam) const;
   /** Previous-frame (undistorted) pixel per needed keypoint by LK flow (DS-SLAM checks). */
   void flowMatches(const Frame& frame, const Frame& prev, const std::vector<cv::Mat>& cur_pyr,
-                   const std::vector<int>& need, const CameraModel* cam, std::vector<cv::Point2f>& prev_un,
-                   std::vector<char>& have);
+                   const std::vector<int>& need, const CameraModel* cam, const cls::MotionPrior& prior,
+                   std::vector<cv::Point2f>& prev_un, std::vector<char>& have);
   /** The same by ORB descriptor matches with the previous frame's keypoints. */
   void descriptorMatches(const Frame& frame, const Frame& prev, const std::vector<int>& need, const CameraModel* cam,
                          std::vector<cv::Point2f>& prev_un, std::vector<char>& have) const;
@@ -115,16 +115,38 @@ EpipolarConsistency::Impl::Sets EpipolarConsistency::Impl::regions(const Frame& 
 
 void EpipolarConsistency::Impl::flowMatches(const Frame& frame, const Frame& prev, const std::vector<cv::Mat>& cur_pyr,
                                             const std::vector<int>& need, const CameraModel* cam,
-                                            std::vector<cv::Point2f>& prev_un, std::vector<char>& have) {
+                                            const cls::MotionPrior& prior, std::vector<cv::Point2f>& prev_un,
+                                            std::vector<char>& have) {
   std::vector<cv::Mat> prev_pyr;
   pyramid(prev.gray, prev.index(), prev.timestamp(), prev_pyr);
   std::vector<cv::Point2f> from, to;
   from.reserve(need.size());
   for (int i : need) from.push_back(frame.keypoints[i].pt);
+  int flags = 0;
+  if (ransac.motion_prior && prior.ok) {
+    // Start each track where the motion model puts the point in the previous
+    // image (its depth, else the median scene depth): coarse levels are not needed.
+    std::vector<float> zs;
+    for (int i : need)
+      if (static_cast<size_t>(i) < frame.depth.size() && frame.depth[i] > 0) zs.push_back(frame.depth[i]);
+    double z_far = 3.0;
+    if (!zs.empty()) {
+      std::nth_element(zs.begin(), zs.begin() + static_cast<long>(zs.size() / 2), zs.end());
+      z_far = zs[zs.size() / 2];
+    }
+    to.resize(from.size());
+    for (size_t k = 0; k < need.size(); k++) {
+      const size_t i = static_cast<size_t>(need[k]);
+      const cv::Point2f un = cls::undistorted(frame, i, cam);
+      const double z = i < frame.depth.size() ? frame.depth[i] : -1.0;
+      to[k] = from[k] + (prior.previousPixel(un, z, z_far) - un);  // the predicted shift, in raw pixels
+    }
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
   std::vector<uchar> status;
   std::vector<float> err;
   cv::calcOpticalFlowPyrLK(cur_pyr, prev_pyr, from, to, status, err, cv::Size(win, win), levels,
-                           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, iters, eps));
+                           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, iters, eps), flags);
   const cv::Mat& g1 = frame.gray;
   const cv::Mat& g0 = prev.gray;
   for (size_t k = 0; k < need.size(); k++) {
@@ -275,8 +297,9 @@ void EpipolarConsistency::classify(Frame& frame, const Detections& det, const Cl
   // ---- correspondences: previous (undistorted) pixel per needed keypoint
   std::vector<cv::Point2f> prev_un(n);
   std::vector<char> have(n, 0);
+  const cls::MotionPrior prior = im.ransac.motion_prior ? cls::motionPrior(ctx) : cls::MotionPrior{};
   if (im.flow)
-    im.flowMatches(frame, *prev, cur_pyr, sets.need, cam, prev_un, have);
+    im.flowMatches(frame, *prev, cur_pyr, sets.need, cam, prior, prev_un, have);
   else
     im.descriptorMatches(frame, *prev, sets.need, cam, prev_un, have);
 
@@ -287,7 +310,7 @@ void EpipolarConsistency::classify(Frame& frame, const Detections& det, const Cl
       p0.push_back(prev_un[i]);
       p1.push_back(cls::undistorted(frame, static_cast<size_t>(i), cam));
     }
-  const cls::FundamentalFit ff = cls::fitFundamental(p0, p1, im.ransac);
+  const cls::FundamentalFit ff = cls::fitFundamental(p0, p1, im.ransac, &prior);
   stats_.fit_matches = ff.matches;
   stats_.fit_inliers = ff.inliers;
   if (!ff.ok) {

@@ -80,6 +80,7 @@ struct PanopticClassifier::Work {
   std::vector<int> cur_stuff, cur_unknown, prev_stuff, prev_unknown;
   std::map<int, std::vector<int>> cur_thing, prev_thing;  // track -> keypoints
   cls::FundamentalFit ff;
+  cls::MotionPrior prior;  ///< the motion model's prediction (motion_prior)
 };
 
 std::map<int, PanopticClassifier::SegStat> PanopticClassifier::thingStats(const Detections& det) {
@@ -202,7 +203,7 @@ void PanopticClassifier::fitStuff(const Frame& frame, Work& w) {
       p1.push_back(cls::undistorted(frame, static_cast<size_t>(w.cur_stuff[k]), w.cam));
     }
   stats_.stuff_matches = static_cast<int>(p0.size());
-  w.ff = cls::fitFundamental(p0, p1, match_->r);
+  w.ff = cls::fitFundamental(p0, p1, match_->r, &w.prior);
   stats_.fitted = w.ff.ok;
   stats_.fit_inliers = w.ff.inliers;
 }
@@ -295,6 +296,7 @@ void PanopticClassifier::classify(Frame& frame, const Detections& det, const Cla
   w.cur_stats = thingStats(det);
   w.prev = ctx.previous;
   w.pdet = ctx.previous_detections;
+  if (match_->r.motion_prior) w.prior = cls::motionPrior(ctx);
   w.have_prev = w.prev && w.pdet && w.pdet->valid && !w.pdet->panoptic.empty() && w.pdet->panoptic.type() == CV_32S &&
                 w.pdet->panoptic.size() == det.panoptic.size() && frame_index_ >= 0 &&
                 frame_index_ == w.prev->index();
