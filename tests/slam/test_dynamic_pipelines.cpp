@@ -40,15 +40,19 @@ std::pair<int, int> usableAndFeatureRange(const std::string& out_dir) {
   std::ifstream f(out_dir + "/frames.csv");
   std::string line;
   std::getline(f, line);
-  EXPECT_EQ(line, "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count");
+  EXPECT_EQ(line, "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count,rss_mb");
   int min_usable = 1 << 30, max_features = 0;
   while (std::getline(f, line)) {
     std::vector<std::string> c;
     std::stringstream ss(line);
     for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
-    if (c.size() != 7) continue;
+    EXPECT_EQ(c.size(), 8u) << line;
+    if (c.size() != 8) continue;
     min_usable = std::min(min_usable, std::stoi(c[4]));
     max_features = std::max(max_features, std::stoi(c[6]));
+    const double rss = std::stod(c[7]);
+    EXPECT_GT(rss, 20.0) << line;  // a running dslam holds at least its libraries
+    EXPECT_LT(rss, 4000.0) << line;
   }
   return {min_usable, max_features};
 }

@@ -13,6 +13,8 @@
 #include <iostream>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "dslam/core/atomic_file.h"
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
@@ -215,6 +217,14 @@ struct LoopOutcome {
   int stop_signal = 0;  ///< SIGINT/SIGTERM that stopped the loop, 0 if none
 };
 
+/** Resident memory of this process in MB (/proc/self/statm), 0 if unknown. */
+double residentMb() {
+  std::ifstream f("/proc/self/statm");
+  long pages = 0, resident = 0;
+  if (!(f >> pages >> resident)) return 0;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
 /** An RGB-D frame whose depth image has no valid pixel (all 0: sensor
  *  dropout, a blank file) is tracked like a monocular frame against the map;
  *  said as a warning for the first three, counted in the summary and the
@@ -238,6 +248,7 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
   log::Progress progress("tracking", n, 100);
   TrackState prev_state = TrackState::NotInitialized;
   size_t done = 0;
+  double rss_mb = residentMb();
   try {
     auto readAsync = [&](size_t k) {
       return std::async(std::launch::async, [&reader, i = start + k * stride] { return reader.read(i); });
@@ -280,10 +291,11 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
       if (r.track.relocalized) ev.frameEvent("relocalised", i);
       if (r.track.state == TrackState::Lost && prev_state == TrackState::Ok) ev.frameEvent("lost", i);
       if (frames_csv.is_open()) {
-        char line[160];
-        std::snprintf(line, sizeof(line), "%d,%.6f,%s,%zu,%zu,%d,%d\n", r.frame_index, r.timestamp,
+        if (done % 100 == 0) rss_mb = residentMb();  // sampled every 100 frames (a /proc read)
+        char line[192];
+        std::snprintf(line, sizeof(line), "%d,%.6f,%s,%zu,%zu,%d,%d,%.1f\n", r.frame_index, r.timestamp,
                       toString(r.track.state), r.keypoints, r.keypoints - r.dynamic_keypoints, r.track.matches,
-                      r.feature_count);
+                      r.feature_count, rss_mb);
         frames_csv << line << std::flush;
       }
       prev_state = r.track.state;
@@ -427,7 +439,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   if (const std::string fp = outPath(pc, out, "frames_csv"); !fp.empty()) {
     frames_csv.open(fp);
     if (!frames_csv) throw DataError("cannot write per-frame CSV: " + fp);
-    frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count\n";
+    frames_csv << "frame,timestamp,state,keypoints,usable_keypoints,tracked_points,feature_count,rss_mb\n";
   }
   sys->setEventSink([&ev](const std::string& e) { ev.write(e); });
   IncrementalTrajectory traj_out;
