@@ -1,5 +1,6 @@
 // Bundle adjustment and pose-graph optimisation: CeresBackend and
 // MrptBackend on the same seeded synthetic problems (ba_synthetic.h).
+#include <atomic>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -458,5 +459,34 @@ TEST(Backends, PoseGraphExtraFixedNodes) {
     EXPECT_TRUE(sameBits(s.graph.nodes[10].T_wc, before.nodes[10].T_wc)) << name;
     EXPECT_TRUE(sameBits(s.graph.nodes[0].T_wc, before.nodes[0].T_wc)) << name;
     EXPECT_FALSE(sameBits(s.graph.nodes[5].T_wc, before.nodes[5].T_wc)) << name;
+  }
+}
+
+// BAOptions::abort (parallel local mapping: a new keyframe arrived): the pass
+// running stops at its next iteration with its best estimate so far, no
+// second pass runs, and the result says it was aborted. Both backends.
+TEST(Backends, AbortFlagStopsTheOptimisationEarly) {
+  SynthBAConfig c;
+  c.stereo = true;
+  c.fixed_keyframes = 1;
+  c.pixel_sigma = 1;
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+    SCOPED_TRACE(name);
+    auto full = makeBA(c), stopped = full;
+    BAOptions o;  // ORB-SLAM scheme: robust pass, outlier test, second pass
+    std::atomic<bool> never{false}, now{true};
+    o.abort = &never;
+    const BAResult rf = make(name)->bundleAdjust(full.problem, o);
+    ASSERT_TRUE(rf.success) << rf.message;
+    EXPECT_FALSE(rf.aborted);
+    o.abort = &now;
+    const BAResult ra = make(name)->bundleAdjust(stopped.problem, o);
+    ASSERT_TRUE(ra.success) << ra.message;
+    EXPECT_TRUE(ra.aborted);
+    EXPECT_LT(ra.iterations, rf.iterations);
+    if (std::string(name) == "dslam::CeresBackend") {
+      EXPECT_LE(ra.iterations, 1);  // stops after its first iteration
+    }
+    EXPECT_LT(ra.final_cost, ra.initial_cost);  // what it did is kept, and is an improvement
   }
 }

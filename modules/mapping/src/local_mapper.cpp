@@ -384,6 +384,9 @@ void LocalMapper::localBundleAdjustment() {
   opt.max_iterations = p_.ba_iterations;
   if (worker_.running()) opt.abort = &abort_ba_;  // parallel: a new keyframe stops it (sequential: never)
   const BAResult r = backend_->bundleAdjust(prob, opt);
+  last_ba_ = {cur_->id,          static_cast<int>(kfs.size() - fixed_count), static_cast<int>(fixed_count),
+              static_cast<int>(pts.size()), static_cast<int>(prob.observations.size()), r.iterations,
+              r.num_outliers, r.aborted, r.time_ms};
   DSLAM_LOG(Debug, "local BA keyframe " << cur_->id << ": " << kfs.size() - fixed_count << " optimised + " << fixed_count
                                         << " fixed keyframes, " << pts.size() << " points, " << prob.observations.size()
                                         << " observations, " << r.iterations << " iterations, " << r.num_outliers

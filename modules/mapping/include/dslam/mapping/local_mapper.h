@@ -37,6 +37,14 @@ struct LocalMapperParams {
   static LocalMapperParams fromParams(const Params& p);
 };
 
+/** Size and outcome of the last local bundle adjustment. */
+struct LocalBAStats {
+  int64_t keyframe = -1;  ///< the new keyframe it was run for
+  int optimised = 0, fixed = 0, points = 0, observations = 0, iterations = 0, outliers = 0;
+  bool aborted = false;
+  double ms = 0;
+};
+
 class LocalMapper : public KeyFrameSink {
  public:
   LocalMapper(const LocalMapperParams& p, std::shared_ptr<Backend> backend, StageTimer* timer = nullptr);
@@ -67,6 +75,8 @@ class LocalMapper : public KeyFrameSink {
   void resume();
   /** Clears the queue and recent points (map reset). */
   void reset();
+  /** The last local BA (parallel mode: read after waitIdle / stop). */
+  LocalBAStats lastLocalBA() const { return last_ba_; }
 
  private:
   void processOne(const KeyFramePtr& kf);
@@ -87,6 +97,7 @@ class LocalMapper : public KeyFrameSink {
   KeyFramePtr cur_;
   std::list<MapPointPtr> recent_points_;
   std::atomic<bool> abort_ba_{false}, pause_req_{false};
+  LocalBAStats last_ba_;
   Worker<KeyFramePtr> worker_;  ///< last member: its thread stops before the rest is destroyed
 };
 
