@@ -1,0 +1,138 @@
+// Asynchronous detection in a running System (parallel mode): tracking never
+// waits for a slow detector, frames get its latest result carried to them
+// with their age; sync mode pairs every frame with its own detection.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+
+#include "dslam/core/dataset.h"
+#include "dslam/core/detector.h"
+#include "dslam/core/keypoint_classifier.h"
+#include "dslam/core/registry.h"
+#include "dslam/slam/system.h"
+#include "synth_cache.h"
+#include "test_support.h"
+
+namespace dslam_test {
+
+/** A detector that, after its first call, blocks until the test opens the
+ *  gate (at most 30 s): a System that waited for it would stall. */
+class GatedDetector : public dslam::Detector {
+  DEFINE_MRPT_OBJECT(GatedDetector, dslam_test)
+ public:
+  std::string description() const override { return "test: blocks until released"; }
+  unsigned outputs() const override { return dslam::kBoxes; }
+  dslam::Detections detect(const dslam::SensorFrame& f) override {
+    std::unique_lock<std::mutex> lk(m);
+    if (calls++ > 0) timed_out |= !cv.wait_for(lk, std::chrono::seconds(30), [this] { return open; });
+    dslam::Detections d;
+    d.boxes.push_back({cv::Rect2f(100, 60, 80, 120), 1, 0.9f, f.index});
+    return d;
+  }
+  void release() {
+    std::lock_guard<std::mutex> lk(m);
+    open = true;
+    cv.notify_all();
+  }
+  std::mutex m;
+  std::condition_variable cv;
+  bool open = false, timed_out = false;
+  int calls = 0;
+};
+
+/** Records what each frame's classifier saw. */
+class Probe : public dslam::KeypointClassifier {
+  DEFINE_MRPT_OBJECT(Probe, dslam_test)
+ public:
+  std::string description() const override { return "test: records detections"; }
+  void classify(dslam::Frame& f, const dslam::Detections& d, const dslam::ClassifierContext&) override {
+    seen.push_back({f.index(), d.valid, d.frame_index, d.age_frames});
+  }
+  struct Seen {
+    int frame;
+    bool valid;
+    int det_frame, age;
+  };
+  std::vector<Seen> seen;
+};
+
+}  // namespace dslam_test
+
+IMPLEMENTS_MRPT_OBJECT(GatedDetector, dslam::Detector, dslam_test)
+IMPLEMENTS_MRPT_OBJECT(Probe, dslam::KeypointClassifier, dslam_test)
+
+using namespace dslam;
+
+namespace {
+
+std::shared_ptr<DatasetSource> scene() {
+  register_builtin_plugins();
+  auto ds = create<DatasetSource>("dslam::TumDataset");
+  ds->configure(Params::resolve(ds->paramSpecs(), test::cat("path: ", test::syntheticSequence("static_office", 40, 320, 240), "\n")),
+                PluginContext{});
+  return ds;
+}
+
+std::shared_ptr<Backend> ceres() {
+  auto b = create<Backend>("dslam::CeresBackend");
+  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
+  return b;
+}
+
+}  // namespace
+
+TEST(AsyncDetection, TrackingDoesNotWaitForASlowDetector) {
+  auto ds = scene();
+  auto det = std::make_shared<dslam_test::GatedDetector>();
+  auto probe = std::make_shared<dslam_test::Probe>();
+  {
+    SlamParams sp;
+    sp.place.enabled = false;
+    System sys(*ds->camera(), sp, ceres(), config::Mode::Parallel);
+    sys.addDetector("gated", det, 1, System::DetectionMode::Async);
+    sys.addClassifier("probe", probe, "gated");
+    for (size_t i = 0; i < 20; i++) sys.track(ds->read(i));  // the detector is stuck on frame 1 meanwhile
+    det->release();
+    // Once released, frames go on getting the latest finished detection.
+    for (size_t i = 20; i < ds->size(); i++) sys.track(ds->read(i));
+    sys.shutdown();
+  }
+  EXPECT_FALSE(det->timed_out) << "the System waited for the blocked detector";
+  ASSERT_EQ(probe->seen.size(), ds->size());
+  // Frame 0 waits for its own detection (no map on undetected movers).
+  EXPECT_TRUE(probe->seen[0].valid);
+  EXPECT_EQ(probe->seen[0].det_frame, 0);
+  EXPECT_EQ(probe->seen[0].age, 0);
+  // While the detector is blocked on frame 1, frames 1..19 get frame 0's
+  // detection carried to them, ever older.
+  for (int k = 1; k < 20; k++) {
+    EXPECT_TRUE(probe->seen[k].valid) << k;
+    EXPECT_EQ(probe->seen[k].det_frame, 0) << k;
+    EXPECT_EQ(probe->seen[k].age, k) << k;
+  }
+  // After the release, a newer detection arrives and ages stay small.
+  EXPECT_GT(probe->seen.back().det_frame, 1);
+  EXPECT_LT(probe->seen.back().age, 10);
+}
+
+TEST(AsyncDetection, SyncModePairsEachFrameWithItsOwnDetection) {
+  auto ds = scene();
+  auto det = std::make_shared<dslam_test::GatedDetector>();
+  det->release();
+  auto probe = std::make_shared<dslam_test::Probe>();
+  {
+    SlamParams sp;
+    sp.place.enabled = false;
+    System sys(*ds->camera(), sp, ceres(), config::Mode::Parallel);
+    sys.addDetector("gated", det, 1, System::DetectionMode::Sync);
+    sys.addClassifier("probe", probe, "gated");
+    for (size_t i = 0; i < 10; i++) sys.track(ds->read(i));
+  }
+  ASSERT_EQ(probe->seen.size(), 10u);
+  for (const auto& s : probe->seen) {
+    EXPECT_EQ(s.det_frame, s.frame);
+    EXPECT_EQ(s.age, 0);
+  }
+}
