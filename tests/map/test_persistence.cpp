@@ -1,0 +1,118 @@
+// Persistence filters: Rosen et al.'s feature persistence filter against a
+// direct evaluation of its posterior, and the object belief updates.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "dslam/map/persistence.h"
+
+using namespace dslam;
+
+namespace {
+
+/** P(T > t | y) by the definition: sum over the interval in which the
+ *  feature vanished (Rosen et al. eq. 6-8), exponential prior. */
+double bruteForce(const FeaturePersistenceParams& p, double t0, const std::vector<std::pair<double, bool>>& obs,
+                  double t) {
+  auto S = [&](double x) { return std::exp(-(x - t0) / p.mean_survival_s); };
+  auto like = [&](bool present, bool seen) {
+    return present ? (seen ? 1 - p.p_miss : p.p_miss) : (seen ? p.p_false_alarm : 1 - p.p_false_alarm);
+  };
+  const size_t n = obs.size();
+  double evidence = 0;
+  for (size_t i = 0; i <= n; i++) {  // vanished after obs[i-1], before obs[i] (or after the last one)
+    double l = 1;
+    for (size_t j = 0; j < n; j++) l *= like(j < i, obs[j].second);
+    const double lo = i == 0 ? t0 : obs[i - 1].first;
+    const double prob = i == n ? S(lo) : S(lo) - S(obs[i].first);
+    evidence += l * prob;
+  }
+  double all_present = 1;
+  for (const auto& o : obs) all_present *= like(true, o.second);
+  return all_present * S(t) / evidence;
+}
+
+}  // namespace
+
+TEST(FeaturePersistence, MatchesTheDirectPosterior) {
+  FeaturePersistenceParams p;
+  p.mean_survival_s = 20;
+  p.p_miss = 0.2;
+  p.p_false_alarm = 0.05;
+  std::mt19937 rng(7);
+  std::bernoulli_distribution coin(0.6);
+  FeaturePersistence f(p, 1.0);
+  std::vector<std::pair<double, bool>> obs;
+  double t = 1.0;
+  EXPECT_NEAR(f.belief(5.0), std::exp(-4.0 / 20), 1e-12);  // no observation: the prior
+  for (int k = 0; k < 40; k++) {
+    t += 0.5 + 0.1 * (k % 3);
+    const bool seen = coin(rng);
+    f.update(seen, t);
+    obs.push_back({t, seen});
+    EXPECT_NEAR(f.belief(t), bruteForce(p, 1.0, obs, t), 1e-9) << "after " << k + 1;
+    EXPECT_NEAR(f.belief(t + 3), bruteForce(p, 1.0, obs, t + 3), 1e-9);
+  }
+  EXPECT_EQ(f.observations(), 40);
+}
+
+TEST(FeaturePersistence, SightingsKeepItMissesRemoveItAndItComesBack) {
+  FeaturePersistenceParams p;  // defaults: mean survival 1 h, P_M 0.1, P_F 0.01
+  FeaturePersistence f(p, 0.0);
+  for (int k = 1; k <= 10; k++) f.update(true, k);
+  EXPECT_GT(f.belief(10), 0.99);
+  int misses = 0;
+  double t = 10;
+  while (f.belief(t) > 0.5 && misses < 20) {
+    f.update(false, ++t);
+    misses++;
+  }
+  EXPECT_LE(misses, 4);  // a few consecutive misses: gone
+  for (int k = 0; k < 5; k++) f.update(false, ++t);
+  EXPECT_LT(f.belief(t), 0.01);
+  // Seen again: a few sightings are false alarms (P_F = 0.01 each) rather than
+  // a present feature missed nine times (P_M^9 = 1e-9); the fifth makes
+  // presence the better explanation and it is believed back.
+  int sightings = 0;
+  while (f.belief(t) < 0.5 && sightings < 20) {
+    f.update(true, ++t);
+    sightings++;
+  }
+  EXPECT_GE(sightings, 3);
+  EXPECT_LE(sightings, 6);
+}
+
+TEST(FeaturePersistence, LongHistoriesStayFinite) {
+  FeaturePersistence f(FeaturePersistenceParams{}, 0.0);
+  for (int k = 1; k <= 20000; k++) f.update(k % 7 != 0, k * 0.1);
+  const double b = f.belief(2000.0);
+  EXPECT_TRUE(std::isfinite(b));
+  EXPECT_GT(b, 0.9);
+}
+
+TEST(ObjectBelief, SightingsRaiseMissesLowerFarSightingsBarelyCount) {
+  ObjectBeliefParams p;
+  double b = 0.5;
+  b = objectBeliefSighted(b, 0.02, 100, p);
+  EXPECT_GT(b, 0.85);
+  const double near = objectBeliefSighted(0.5, 0.05, 100, p);
+  const double far = objectBeliefSighted(0.5, 0.5, 100, p);  // 0.5 m off a 100-point object
+  EXPECT_GT(near, far);
+  EXPECT_LT(far, 0.5);  // a same-class object that far away is not this one
+  // Few points: a wider likelihood, the same offset still supports it.
+  EXPECT_GT(objectBeliefSighted(0.5, 0.3, 1, p), objectBeliefSighted(0.5, 0.3, 100, p));
+  // Negative evidence: each miss multiplies the odds by (1 - 0.8) / (1 - 0.1);
+  // three bring a confident (0.9) object below 0.3.
+  double c = 0.9;
+  c = objectBeliefMissed(c, p);
+  EXPECT_NEAR(c / (1 - c), 9.0 * 0.2 / 0.9, 1e-9);
+  c = objectBeliefMissed(c, p);
+  c = objectBeliefMissed(c, p);
+  EXPECT_LT(c, 0.3);
+  // Clamped: it can always come back.
+  for (int k = 0; k < 50; k++) c = objectBeliefMissed(c, p);
+  EXPECT_DOUBLE_EQ(c, p.belief_min);
+  EXPECT_GT(objectBeliefSighted(c, 0.0, 50, p), 0.05);
+}
