@@ -11,6 +11,10 @@ Map::~Map() { clear(); }
 
 int64_t Map::nextKeyFrameId() { return g_next_kf++; }
 int64_t Map::nextPointId() { return g_next_pt++; }
+int64_t& Map::objectIdCounter() {
+  static int64_t next = 0;
+  return next;
+}
 void Map::reserveIds(int64_t kf, int64_t pt) {
   int64_t cur = g_next_kf.load();
   while (cur <= kf && !g_next_kf.compare_exchange_weak(cur, kf + 1)) {
@@ -56,9 +60,14 @@ void Map::absorb(Map& other, const SE3& T_this_other) {
     p->map = this;
     points_[id] = p;
   }
+  for (auto& [id, o] : other.objects_) {
+    o->refresh();  // centroid and box from the moved points
+    objects_[id] = o;
+  }
   other.kfs_.clear();
   other.all_kfs_.clear();
   other.points_.clear();
+  other.objects_.clear();
   other.origin_.reset();
 }
 
@@ -68,6 +77,7 @@ void Map::clear() {
     for (auto& p : kf->points) p.reset();
   }
   for (auto& [i, p] : points_) p->replaced.reset();
+  objects_.clear();
   points_.clear();
   kfs_.clear();
   all_kfs_.clear();

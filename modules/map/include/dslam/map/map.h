@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dslam/map/keyframe.h"
+#include "dslam/map/map_object.h"
 #include "dslam/map/map_point.h"
 
 namespace dslam {
@@ -38,6 +39,9 @@ class Map {
   KeyFramePtr keyframe(int64_t id) const;
   MapPointPtr point(int64_t id) const;
   KeyFramePtr origin() const { return origin_; }
+  /** Objects of the semantic map (long-term data association, map_object.h). */
+  std::map<int64_t, MapObjectPtr>& objects() { return objects_; }
+  const std::map<int64_t, MapObjectPtr>& objects() const { return objects_; }
   /** Keyframes ever created in this map, including erased ones. */
   const std::map<int64_t, KeyFramePtr>& allKeyFramesEver() const { return all_kfs_; }
 
@@ -47,19 +51,22 @@ class Map {
   /** Unique ids across all maps of the process. */
   static int64_t nextKeyFrameId();
   static int64_t nextPointId();
+  /** Object ids, unique across maps (kept when maps merge). */
+  static int64_t& objectIdCounter();
   /** For loading saved maps: ids continue after `kf` / `pt`. */
   static void reserveIds(int64_t kf, int64_t pt);
 
   void clear();
 
-  /** Moves every keyframe (live and erased) and point of `other` into this
-   *  map, transforming them by T_this_other (world of `other` -> world of
-   *  this map); `other` is left empty. Map merging. */
+  /** Moves every keyframe (live and erased), point and object of `other`
+   *  into this map, transforming them by T_this_other (world of `other` ->
+   *  world of this map); `other` is left empty. Map merging. */
   void absorb(Map& other, const SE3& T_this_other);
 
  private:
   std::map<int64_t, KeyFramePtr> kfs_, all_kfs_;
   std::map<int64_t, MapPointPtr> points_;
+  std::map<int64_t, MapObjectPtr> objects_;
   KeyFramePtr origin_;
 };
 

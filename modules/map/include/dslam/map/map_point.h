@@ -41,6 +41,7 @@ class MapPoint {
   int32_t object_id = -1;
   KpLabel label = KpLabel::Static;
   bool active = true;                     ///< persistence: inactive points take no part in tracking/loops
+  int64_t map_object = -1;                ///< MapObject it belongs to (long-term data association), -1 = none
 
   /** kf id -> (kf, keypoint index), ordered by id (deterministic). */
   const std::map<int64_t, std::pair<KeyFrame*, int>>& observations() const { return obs_; }

@@ -1,0 +1,102 @@
+#pragma once
+/** \file map_object.h
+ *  Objects of the semantic map (Changing-SLAM's MapObjects) and their
+ *  long-term data association.
+ *
+ *  A MapObject groups the map points created on one detected object: its
+ *  class (COCO id), centroid (mean of its points), 3D box (per axis, the
+ *  median of the 5% smallest and of the 5% largest coordinates: robust to
+ *  a few stray points), first and latest 2D box, the belief that it is still
+ *  there and whether its points are active. Objects live in their Map
+ *  (kept across merges, saved with the atlas).
+ *
+ *  Long-term data association (Changing-SLAM, Algorithm 1): each new
+ *  keyframe's labelled points are grouped into object candidates; a
+ *  candidate is merged into the existing object of the same class whose
+ *  centroid is closest and nearer than `ltda_threshold` (points combined),
+ *  otherwise it becomes a new object. Changes of belief are the map
+ *  manager's (persistence filters, dslam/map/persistence.h). */
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "dslam/map/map_point.h"
+
+namespace dslam {
+
+class KeyFrame;
+
+struct MapObject {
+  int64_t id = -1;
+  int class_id = -1;                          ///< COCO category id
+  std::map<int64_t, MapPointPtr> points;      ///< by point id (deterministic order)
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d box_min = Eigen::Vector3d::Zero(), box_max = Eigen::Vector3d::Zero();
+  cv::Rect2f first_box, current_box;          ///< image boxes of the first and latest sighting
+  double belief = 0.5;                        ///< P(still there)
+  bool active = true;                         ///< its points take part in tracking, BA, loops
+  int64_t first_seen_kf = -1, last_seen_kf = -1;
+  double first_seen_t = 0, last_seen_t = 0;
+  int sightings = 0;                          ///< keyframes that saw it
+
+  /** Drops bad points (follows fused ones), recomputes centroid and box.
+   *  Returns the number of points left. */
+  size_t refresh();
+  size_t numPoints() const { return points.size(); }
+  /** Sets `active` on the object and on every one of its points. */
+  void setActive(bool a);
+};
+
+using MapObjectPtr = std::shared_ptr<MapObject>;
+
+/** Per axis: the median of the `fraction` smallest and of the `fraction`
+ *  largest coordinates (at least one point each). Empty input: zeros. */
+void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi,
+               double fraction = 0.05);
+
+/** Points of one keyframe that belong to one object. */
+struct ObjectCandidate {
+  int class_id = -1;
+  int source_id = -1;  ///< the classifier's object / instance id (-1 = none)
+  std::vector<MapPointPtr> points;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  cv::Rect2f box;      ///< image box of its keypoints
+};
+
+struct LtdaParams {
+  double threshold_m = 0.25;      ///< same class and centroids closer than this: the same object
+  double cluster_m = 0.3;         ///< points without an instance id: one candidate per cluster of this radius
+  int min_points = 5;             ///< smaller candidates are ignored
+  std::vector<int> classes;       ///< classes that make objects ([] = every labelled class except person)
+  std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
+};
+
+/** The object candidates of a keyframe: its map points whose keypoints carry
+ *  a class (KeypointMeta of the keyframe or the point's own class), grouped
+ *  by (class, instance id), points without an instance id clustered. */
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p);
+
+/** What long-term data association did with one candidate. */
+struct LtdaMatch {
+  size_t candidate = 0;
+  int64_t object = -1;
+  bool created = false;
+  double distance = 0;               ///< centroid distance to the object it was merged into
+  int64_t previous_seen_kf = -1;     ///< the object's last sighting before this one (-1: created now)
+};
+
+/** Algorithm 1: merges each candidate into the nearest same-class object
+ *  within the threshold (nearest first, one candidate per object), or
+ *  creates a new object (id from `next_id`). Marks every map point with its
+ *  object id and class; sets last_seen / sightings / current_box. Returns one
+ *  entry per candidate, in candidate order. */
+std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects,
+                                        const std::vector<ObjectCandidate>& candidates, int64_t kf_id, double t,
+                                        const LtdaParams& p, int64_t& next_id);
+
+}  // namespace dslam

@@ -1,0 +1,189 @@
+#include "dslam/map/map_object.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <tuple>
+
+#include "dslam/map/keyframe.h"
+
+namespace dslam {
+
+size_t MapObject::refresh() {
+  std::map<int64_t, MapPointPtr> alive;
+  for (const auto& [id, p] : points) {
+    MapPointPtr q = MapPoint::resolve(p);
+    if (q && !q->bad) alive[q->id] = q;
+  }
+  points = std::move(alive);
+  std::vector<Eigen::Vector3d> xs;
+  xs.reserve(points.size());
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& [id, p] : points) {
+    xs.push_back(p->pos);
+    sum += p->pos;
+  }
+  if (!xs.empty()) centroid = sum / static_cast<double>(xs.size());
+  robustBox(xs, box_min, box_max);
+  return points.size();
+}
+
+void MapObject::setActive(bool a) {
+  active = a;
+  for (const auto& [id, p] : points) p->active = a;
+}
+
+void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi, double fraction) {
+  lo.setZero();
+  hi.setZero();
+  if (pts.empty()) return;
+  const size_t n = pts.size();
+  const size_t k = std::max<size_t>(1, static_cast<size_t>(std::lround(fraction * static_cast<double>(n))));
+  std::vector<double> v(n);
+  for (int a = 0; a < 3; a++) {
+    for (size_t i = 0; i < n; i++) v[i] = pts[i][a];
+    std::sort(v.begin(), v.end());
+    // Median of the k smallest and of the k largest.
+    lo[a] = k % 2 ? v[k / 2] : 0.5 * (v[k / 2 - 1] + v[k / 2]);
+    hi[a] = k % 2 ? v[n - 1 - k / 2] : 0.5 * (v[n - k / 2] + v[n - 1 - k / 2]);
+  }
+}
+
+namespace {
+
+bool objectClass(int c, const LtdaParams& p) {
+  if (c < 0) return false;
+  if (std::find(p.ignore_classes.begin(), p.ignore_classes.end(), c) != p.ignore_classes.end()) return false;
+  return p.classes.empty() || std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
+}
+
+/** Single-linkage clusters of `idx` (positions into pts) with radius r. */
+std::vector<std::vector<size_t>> clusters(const std::vector<Eigen::Vector3d>& pts, double r) {
+  const size_t n = pts.size();
+  std::vector<int> comp(n, -1);
+  std::vector<std::vector<size_t>> out;
+  for (size_t s = 0; s < n; s++) {
+    if (comp[s] >= 0) continue;
+    const int c = static_cast<int>(out.size());
+    out.push_back({s});
+    comp[s] = c;
+    for (size_t q = 0; q < out[c].size(); q++) {
+      const size_t a = out[c][q];
+      for (size_t b = 0; b < n; b++)
+        if (comp[b] < 0 && (pts[a] - pts[b]).squaredNorm() <= r * r) {
+          comp[b] = c;
+          out[c].push_back(b);
+        }
+    }
+    std::sort(out[c].begin(), out[c].end());
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p) {
+  // (class, instance) -> keypoint indices, in keypoint order.
+  std::map<std::pair<int, int>, std::vector<size_t>> groups;
+  for (size_t i = 0; i < kf.points.size(); i++) {
+    const MapPointPtr& mp = kf.points[i];
+    if (!mp || mp->bad) continue;
+    int c = -1, inst = -1;
+    if (i < kf.meta.size() && kf.meta[i].label != KpLabel::Dynamic) {
+      c = kf.meta[i].class_id;
+      inst = kf.meta[i].object_id;
+    }
+    if (c < 0) {  // the class the point was created with
+      c = mp->class_id;
+      inst = mp->object_id;
+    }
+    if (!objectClass(c, p) || mp->label == KpLabel::Dynamic) continue;
+    groups[{c, inst}].push_back(i);
+  }
+  std::vector<ObjectCandidate> out;
+  auto emit = [&](int c, int inst, const std::vector<size_t>& idx) {
+    if (static_cast<int>(idx.size()) < p.min_points) return;
+    ObjectCandidate cand;
+    cand.class_id = c;
+    cand.source_id = inst;
+    float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+    for (size_t i : idx) {
+      cand.points.push_back(kf.points[i]);
+      cand.centroid += kf.points[i]->pos;
+      const cv::Point2f& u = kf.keys_un[i].pt;
+      x0 = std::min(x0, u.x);
+      y0 = std::min(y0, u.y);
+      x1 = std::max(x1, u.x);
+      y1 = std::max(y1, u.y);
+    }
+    cand.centroid /= static_cast<double>(idx.size());
+    cand.box = cv::Rect2f(x0, y0, x1 - x0, y1 - y0);
+    out.push_back(std::move(cand));
+  };
+  for (const auto& [key, idx] : groups) {
+    if (key.second >= 0) {
+      emit(key.first, key.second, idx);
+      continue;
+    }
+    std::vector<Eigen::Vector3d> xs;
+    for (size_t i : idx) xs.push_back(kf.points[i]->pos);
+    for (const auto& cl : clusters(xs, p.cluster_m)) {
+      std::vector<size_t> sub;
+      for (size_t k : cl) sub.push_back(idx[k]);
+      emit(key.first, -1, sub);
+    }
+  }
+  return out;
+}
+
+std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects,
+                                        const std::vector<ObjectCandidate>& candidates, int64_t kf_id, double t,
+                                        const LtdaParams& p, int64_t& next_id) {
+  std::vector<LtdaMatch> out(candidates.size());
+  // Every (distance, candidate, object) pair within the threshold, nearest first.
+  std::vector<std::tuple<double, size_t, int64_t>> pairs;
+  for (size_t c = 0; c < candidates.size(); c++)
+    for (const auto& [id, o] : objects)
+      if (o->class_id == candidates[c].class_id) {
+        const double d = (o->centroid - candidates[c].centroid).norm();
+        if (d < p.threshold_m) pairs.emplace_back(d, c, id);
+      }
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<char> used_c(candidates.size(), 0);
+  std::map<int64_t, char> used_o;
+  for (const auto& [d, c, id] : pairs) {
+    if (used_c[c] || used_o[id]) continue;
+    used_c[c] = 1;
+    used_o[id] = 1;
+    out[c] = {c, id, false, d, objects.at(id)->last_seen_kf};
+  }
+  for (size_t c = 0; c < candidates.size(); c++) {
+    const ObjectCandidate& cand = candidates[c];
+    MapObjectPtr o;
+    if (used_c[c]) {
+      o = objects.at(out[c].object);
+    } else {
+      o = std::make_shared<MapObject>();
+      o->id = next_id++;
+      o->class_id = cand.class_id;
+      o->first_seen_kf = kf_id;
+      o->first_seen_t = t;
+      o->first_box = cand.box;
+      objects[o->id] = o;
+      out[c] = {c, o->id, true, 0.0, -1};
+    }
+    for (const auto& mp : cand.points) {
+      o->points[mp->id] = mp;
+      mp->map_object = o->id;
+      mp->active = o->active;
+    }
+    o->last_seen_kf = kf_id;
+    o->last_seen_t = t;
+    o->current_box = cand.box;
+    o->sightings++;
+    o->refresh();
+  }
+  return out;
+}
+
+}  // namespace dslam
