@@ -127,3 +127,19 @@ TEST(YamlLoader, ErrorsQuoteAShortExcerptNotTheWholeValue) {
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   }
 }
+
+// Fuzzing (tests/fuzz): text that is not UTF-8 made libfyaml loop forever.
+TEST(YamlLoader, InvalidUtf8IsRefusedBeforeParsing) {
+  for (const std::string bad : {"%\x80\na: 1\n", "a: 1\nb: \xC0\xAF\n", "a: \xED\xA0\x80\n", "a: \xF4\x90\x80\x80\n", "a: \xE2\x82"}) {
+    try {
+      config::loadYamlText(bad, "bad.yaml", ".");
+      FAIL() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.yaml:"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not valid UTF-8"), std::string::npos) << e.what();
+    }
+  }
+  // Valid multi-byte text still loads.
+  const auto ly = config::loadYamlText("name: \"caf\xC3\xA9 \xE2\x82\xAC \xF0\x9F\x98\x80\"\n", "ok.yaml", ".");
+  EXPECT_TRUE(ly.root->isMap());
+}

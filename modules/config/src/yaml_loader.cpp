@@ -139,6 +139,9 @@ std::string syntaxError(const std::string& diag, const std::string& file) {
 }
 
 yaml parseText(const std::string& text, const std::string& file) {
+  if (const size_t bad = yamlu::invalidUtf8(text); bad != std::string::npos)  // libfyaml can hang on it
+    throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text, bad)) + ": not valid UTF-8 text (byte " +
+                      std::to_string(bad) + "); YAML files must be UTF-8");
   yaml y;
   std::string exception_msg;
   const std::string diag = captureStderr([&] {

@@ -55,8 +55,11 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
     text << line << "\n";
   }
   mrpt::containers::yaml y;
+  const std::string txt = text.str();
+  if (const size_t bad = yamlu::invalidUtf8(txt); bad != std::string::npos)  // libfyaml can hang on it
+    throw DataError(file + ": not valid UTF-8 text (byte " + std::to_string(bad) + " after dropping the %YAML line)");
   try {
-    y = mrpt::containers::yaml::FromText(text.str());
+    y = mrpt::containers::yaml::FromText(txt);
   } catch (const std::exception& e) {
     throw DataError(file + ": cannot parse YAML: " + e.what());
   }
