@@ -48,6 +48,10 @@ json parseJsonFile(const std::string& file) {
     std::string what = e.what();
     if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
     throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " + what);
+  } catch (const json::exception& e) {  // e.g. out_of_range: "number overflow parsing '1e58140'"
+    std::string what = e.what();
+    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw DataError(file + ": invalid JSON: " + what);
   }
 }
 
