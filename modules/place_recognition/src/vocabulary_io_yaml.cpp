@@ -139,6 +139,10 @@ Vocabulary VocabularyIo::loadYaml(const std::string& path) {
     return Vocabulary::fromTree(k, L, wt, st, parents, descs, words, weights, what);
   } catch (const cv::Exception& e) {
     throw DataError(what + ": cannot be parsed: " + e.msg);
+  } catch (const DataError&) {
+    throw;
+  } catch (const std::exception& e) {  // OpenCV's YAML parser also throws std::length_error on some broken keys
+    throw DataError(what + ": cannot be parsed (" + e.what() + ")");
   }
 }
 
