@@ -238,7 +238,12 @@ CameraIntrinsics readIntrinsics(Reader& r) {
   for (float& x : v) x = r.get<float>();
   c.fx = v[0], c.fy = v[1], c.cx = v[2], c.cy = v[3], c.invfx = v[4], c.invfy = v[5], c.bf = v[6], c.close_depth = v[7];
   c.bounds = {v[8], v[9], v[10], v[11]};
-  if (!(c.fx > 0) || !c.bounds.valid()) r.fail("bad keyframe intrinsics");
+  for (float x : v)
+    if (!std::isfinite(x)) r.fail("non-finite keyframe intrinsics");
+  // The image bounds size the feature grid: at least a pixel, at most 1e5.
+  const float bw = c.bounds.max_x - c.bounds.min_x, bh = c.bounds.max_y - c.bounds.min_y;
+  if (!(c.fx > 0) || !(c.fy > 0) || !(bw >= 1 && bw <= 1e5f) || !(bh >= 1 && bh <= 1e5f))
+    r.fail("bad keyframe intrinsics");
   return c;
 }
 
@@ -252,6 +257,8 @@ void readKeypoints(Reader& r, int32_t n_levels, Frame& f) {
   for (uint64_t i = 0; i < n; i++) {
     float kv[5];
     for (float& x : kv) x = r.get<float>();
+    for (float x : kv)
+      if (!std::isfinite(x)) r.fail("non-finite keypoint");
     const int32_t oct = r.get<int32_t>();
     if (oct < 0 || oct >= n_levels) r.fail("keypoint octave out of range");
     f.keypoints_un[i] = cv::KeyPoint(kv[0], kv[1], kv[2], kv[3], kv[4], oct);
