@@ -74,8 +74,10 @@ template <class F>
 void guarded(F&& f) {
   try {
     f();
-  } catch (const dslam::Error&) {
-    // the clean refusal
+  } catch (const dslam::Error& e) {
+    // the clean refusal; DSLAM_FUZZ_VERBOSE=1 prints it (checking what an input reaches)
+    static const bool verbose = std::getenv("DSLAM_FUZZ_VERBOSE") != nullptr;
+    if (verbose) std::fprintf(stderr, "dslam::Error: %s\n", e.what());
   } catch (const std::bad_alloc& e) {
     finding("std::bad_alloc (unbounded allocation)", e.what());
   } catch (const std::length_error& e) {
