@@ -6,7 +6,7 @@
 #   scripts/fuzz.sh run TARGET [SECONDS]  fuzz one target (default 600 s) from its seeds and
 #                                         committed corpus; log in build-fuzz/logs/TARGET.log
 #   scripts/fuzz.sh merge TARGET          minimise everything found into tests/fuzz/corpus/TARGET
-#                                         (inputs <= 4 KB, the regression corpus)
+#                                         (inputs <= MERGE_MAX bytes, default 4096: the regression corpus)
 #   scripts/fuzz.sh all [SECONDS]         run + merge every target, one after the other
 #
 # One fuzzer at a time, niced, with the limits the project holds itself to:
@@ -103,8 +103,9 @@ merge() {
   local t=$1 M=$BF/merged/$1
   rm -rf "$M" && mkdir -p "$M" "$BF/small/$t"
   rm -rf "$BF/small/$t"/*
-  # Only inputs <= 4 KB are candidates for the committed corpus.
-  find "$BF/found/$t" "$BF/seeds/$t" "tests/fuzz/corpus/$t" -maxdepth 1 -type f -size -4097c -exec cp -t "$BF/small/$t" {} + 2>/dev/null || true
+  # Only small inputs (<= MERGE_MAX bytes, default 4 KB) are candidates for the committed corpus.
+  find "$BF/found/$t" "$BF/seeds/$t" "tests/fuzz/corpus/$t" -maxdepth 1 -type f -size -"$((${MERGE_MAX:-4096} + 1))"c \
+    -exec cp -t "$BF/small/$t" {} + 2>/dev/null || true
   ASAN_OPTIONS=$(asan "$t") nice -n 19 "$BF/tests/fuzz/fuzz_$t" -merge=1 -timeout=10 $(limits "$t") \
     -max_len="$(maxlen "$t")" "$M" "$BF/small/$t" > "$BF/logs/$t.merge.log" 2>&1
   # Keep the named regression inputs of findings (finding_*), replace the rest.
