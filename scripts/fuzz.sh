@@ -29,7 +29,11 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # timeouts (their inputs are still written to artifacts/ to be checked);
 # crashes and sanitizer reports stop it as for every target.
 limits() { echo "-rss_limit_mb=2048 -malloc_limit_mb=1024"; }
-extra() { case $1 in rawlog) echo "-fork=1 -ignore_ooms=1 -ignore_timeouts=1" ;; esac; }
+# It also goes on past crashes (-ignore_crashes=1): MRPT writes through a null
+# pointer when the allocation of a range image of the size in the file fails
+# (tests/fuzz/known/). Every crash-* artifact must then be triaged by hand
+# (scripts/fuzz.sh triage rawlog lists the top dslam frame of each).
+extra() { case $1 in rawlog) echo "-fork=1 -ignore_ooms=1 -ignore_timeouts=1 -ignore_crashes=1" ;; esac; }
 # (rawlog: an image size from the file reaches OpenCV's malloc inside MRPT; a
 # failed malloc is a clean error there, so ASan may return NULL.)
 asan() { case $1 in rawlog) echo "allocator_may_return_null=1:detect_leaks=0" ;; *) echo "$ASAN_OPTIONS" ;; esac; }
@@ -113,11 +117,24 @@ merge() {
   echo "$t: $(ls "tests/fuzz/corpus/$t" | wc -l) files, $(cat "tests/fuzz/corpus/$t"/* | wc -c) bytes"
 }
 
+# triage TARGET: for each crash artifact, the first stack frame in dslam code
+# (or "third-party only").
+triage() {
+  local t=$1 f
+  for f in "$BF/artifacts/$t"/crash-*; do
+    [ -e "$f" ] || continue
+    echo "== $(basename "$f"): $( (ASAN_OPTIONS=$(asan "$t") "$BF/tests/fuzz/fuzz_$t" "$f" 2>&1 || true) |
+      grep -E '^ +#[0-9]+ 0x[0-9a-f]+ in ' | grep -E ' in dslam::| /work/| \.\./(modules|plugins)/' | grep -v 'fuzz_common.h\|fuzz_'"$t"'.cpp' |
+      head -n 1 | sed 's/^ *//' || true)"
+  done
+}
+
 case ${1:-} in
   build) build ;;
   seeds) seeds ;;
   run) run "$2" "${3:-600}" ;;
   merge) merge "$2" ;;
+  triage) triage "$2" ;;
   all) for t in $TARGETS; do run "$t" "${2:-600}"; merge "$t"; done ;;
   *) sed -n '2,15p' "$0"; exit 2 ;;
 esac
