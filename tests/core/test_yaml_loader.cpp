@@ -127,3 +127,35 @@ TEST(YamlLoader, ErrorsQuoteAShortExcerptNotTheWholeValue) {
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   }
 }
+
+// Fuzzing (tests/fuzz): a long `$include{...}` scalar or `${VAR|default}`
+// used to overflow the stack in std::regex; text that is not UTF-8 made
+// libfyaml loop forever.
+TEST(YamlLoader, LongIncludeAndVariableLinesDoNotOverflowTheStack) {
+  unsetenv("DSLAM_TEST_UNSET");
+  const std::string longs(400000, 'a');
+  EXPECT_EQ(config::expandVariables("x: ${DSLAM_TEST_UNSET|" + longs + "}\n", "f.yaml"), "x: " + longs + "\n");
+  EXPECT_EQ(config::expandVariables("x: ${" + longs, "f.yaml"), "x: ${" + longs + "\n");
+  EXPECT_EQ(config::expandVariables("$ ${ ${1} $${DSLAM_TEST_UNSET|b}}\n", "f.yaml"), "$ ${ ${1} $b}\n");
+  try {
+    config::loadYamlText("camera: $include{" + longs + "}\n", "big.yaml", test::tempDir("yaml_long"));
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("included file not found"), std::string::npos) << std::string(e.what()).substr(0, 200);
+  }
+}
+
+TEST(YamlLoader, InvalidUtf8IsRefusedBeforeParsing) {
+  for (const std::string bad : {"%\x80\na: 1\n", "a: 1\nb: \xC0\xAF\n", "a: \xED\xA0\x80\n", "a: \xF4\x90\x80\x80\n", "a: \xE2\x82"}) {
+    try {
+      config::loadYamlText(bad, "bad.yaml", ".");
+      FAIL() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.yaml:"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not valid UTF-8"), std::string::npos) << e.what();
+    }
+  }
+  // Valid multi-byte text still loads.
+  const auto ly = config::loadYamlText("name: \"caf\xC3\xA9 \xE2\x82\xAC \xF0\x9F\x98\x80\"\n", "ok.yaml", ".");
+  EXPECT_TRUE(ly.root->isMap());
+}

@@ -198,3 +198,18 @@ events:
 TEST(SynthScenario, MissingFileIsDataError) {
   EXPECT_THROW(loadScenario("/nonexistent/scenario.yaml"), dslam::DataError);
 }
+
+// Fuzzing (tests/fuzz): validation work is frames x (objects + people); a
+// small file could ask for hours of checks. Bounded, with a message.
+TEST(SynthScenario, ValidationWorkIsBounded) {
+  std::string many = "name: t\nframes: 100000\nroom: {size: [6, 5, 2.8]}\n"
+                     "camera: {trajectory: {type: static, center: [0, 0, 1.4], look_at: [1, 0, 1.2]}}\nobjects:\n";
+  for (int i = 0; i < 25; i++)
+    many += "  - {name: b" + std::to_string(i) + ", type: box, class: book, size: [0.1, 0.1, 0.1], position: [" +
+            std::to_string(-2.4 + 0.2 * i) + ", 2.0, 0]}\n";
+  expectError(many, {"bad.yaml", "100000 frames x 25 objects and people", "more than 2000000"});
+  // 80000 frames x 25 objects is allowed and quick (the camera is far from them).
+  std::string ok = many;
+  ok.replace(ok.find("100000"), 6, "80000");
+  EXPECT_EQ(parseScenario(ok).frames, 80000);
+}

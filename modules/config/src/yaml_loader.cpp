@@ -10,7 +10,8 @@
 #include <mutex>
 #include <filesystem>
 #include <fstream>
-#include <regex>
+#include <cctype>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -38,8 +39,36 @@ std::string LoadedYaml::fileFor(const std::string& key_path) const {
   return best;
 }
 
+namespace {
+
+bool isVarStart(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_'; }
+bool isVarChar(char c) { return isVarStart(c) || (c >= '0' && c <= '9'); }
+
+/** A `${NAME}` / `${NAME|default}` at `code[i]` (which is '$'): its end
+ *  (one past '}'), name and default. Hand-written, not std::regex: the
+ *  recursive std::regex matcher overflows the stack on long lines. */
+bool matchVariable(const std::string& code, size_t i, size_t& end, std::string& name, std::optional<std::string>& def) {
+  if (i + 2 >= code.size() || code[i + 1] != '{' || !isVarStart(code[i + 2])) return false;
+  size_t j = i + 3;
+  while (j < code.size() && isVarChar(code[j])) j++;
+  if (j >= code.size()) return false;
+  name = code.substr(i + 2, j - i - 2);
+  if (code[j] == '}') {
+    def.reset();
+    end = j + 1;
+    return true;
+  }
+  if (code[j] != '|') return false;
+  const size_t close = code.find('}', j + 1);
+  if (close == std::string::npos) return false;
+  def = code.substr(j + 1, close - j - 1);
+  end = close + 1;
+  return true;
+}
+
+}  // namespace
+
 std::string expandVariables(const std::string& text, const std::string& file) {
-  static const std::regex re(R"(\$\{([A-Za-z_][A-Za-z0-9_]*)(\|([^}]*))?\})");
   std::string out;
   std::istringstream in(text);
   std::string line;
@@ -57,18 +86,24 @@ std::string expandVariables(const std::string& text, const std::string& file) {
       }
     }
     std::string res;
-    auto begin = std::sregex_iterator(code.begin(), code.end(), re);
-    size_t last = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-      const auto& m = *it;
-      res += code.substr(last, m.position() - last);
-      const std::string var = m[1].str();
-      const bool has_def = m[2].matched;
+    size_t i = 0;
+    while (i < code.size()) {
+      const size_t dollar = code.find('$', i);
+      if (dollar == std::string::npos) break;
+      size_t end = 0;
+      std::string var;
+      std::optional<std::string> def;
+      if (!matchVariable(code, dollar, end, var, def)) {
+        res.append(code, i, dollar + 1 - i);
+        i = dollar + 1;
+        continue;
+      }
+      res.append(code, i, dollar - i);
       const char* e = std::getenv(var.c_str());
       if (e && *e)
         res += e;
-      else if (has_def)
-        res += m[3].str();
+      else if (def)
+        res += *def;
       else if (var == "DSLAM_SHARED_DIR")
         res += sharedDir();
       else if (var == "CONFIG_DIR")
@@ -76,9 +111,9 @@ std::string expandVariables(const std::string& text, const std::string& file) {
       else
         throw ConfigError(file + ":" + std::to_string(lineno) + ": environment variable '" + var +
                           "' is not set and has no default (write ${" + var + "|default})");
-      last = m.position() + m.length();
+      i = end;
     }
-    res += code.substr(last);
+    if (i < code.size()) res.append(code, i, std::string::npos);
     out += res + comment + "\n";
   }
   return out;
@@ -86,7 +121,14 @@ std::string expandVariables(const std::string& text, const std::string& file) {
 
 namespace {
 
-const std::regex kInclude(R"(^\$include\{([^}]+)\}$)");
+/** The path of a scalar that is exactly `$include{path}` (path without '}'). */
+std::optional<std::string> includePath(const std::string& t) {
+  static const std::string kOpen = "$include{";
+  if (t.size() <= kOpen.size() + 1 || t.compare(0, kOpen.size(), kOpen) != 0 || t.back() != '}') return std::nullopt;
+  std::string p = t.substr(kOpen.size(), t.size() - kOpen.size() - 1);
+  if (p.find('}') != std::string::npos) return std::nullopt;
+  return p;
+}
 
 /** Runs `fn` with stderr (fd 2) captured; returns what was written there.
  *  MRPT's YAML parser (libfyaml) prints some syntax errors, e.g. an unclosed
@@ -130,15 +172,32 @@ std::string captureStderr(Fn&& fn) {
 /** "file:line:col: YAML syntax error: what" from libfyaml's
  *  "<memory-@0x...>:line:col: error: what". */
 std::string syntaxError(const std::string& diag, const std::string& file) {
-  static const std::regex re(R"(:(\d+):(\d+): error: ([^\n]*))");
-  std::smatch m;
-  if (std::regex_search(diag, m, re))
-    return file + ":" + m[1].str() + ":" + m[2].str() + ": YAML syntax error: " + m[3].str();
+  // ":<line>:<col>: error: <what>" (scanned by hand: std::regex recurses per character).
+  for (size_t at = diag.find(": error: "); at != std::string::npos; at = diag.find(": error: ", at + 1)) {
+    size_t b = at;
+    auto digitsBack = [&](size_t& pos) {  // digits ending at pos - 1, preceded by ':'
+      size_t q = pos;
+      while (q > 0 && std::isdigit(static_cast<unsigned char>(diag[q - 1]))) q--;
+      if (q == pos || q == 0 || diag[q - 1] != ':') return std::string();
+      std::string d = diag.substr(q, pos - q);
+      pos = q - 1;
+      return d;
+    };
+    const std::string col = digitsBack(b);
+    const std::string line = col.empty() ? std::string() : digitsBack(b);
+    if (line.empty()) continue;
+    const size_t from = at + 9, nl = diag.find('\n', from);
+    return file + ":" + line + ":" + col + ": YAML syntax error: " +
+           diag.substr(from, nl == std::string::npos ? std::string::npos : nl - from);
+  }
   std::string first = diag.substr(0, diag.find('\n'));
   return file + ": YAML syntax error: " + first.substr(0, 200);
 }
 
 yaml parseText(const std::string& text, const std::string& file) {
+  if (const size_t bad = yamlu::invalidUtf8(text); bad != std::string::npos)  // libfyaml can hang on it
+    throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text, bad)) + ": not valid UTF-8 text (byte " +
+                      std::to_string(bad) + "); YAML files must be UTF-8");
   yaml y;
   std::string exception_msg;
   const std::string diag = captureStderr([&] {
@@ -172,9 +231,8 @@ struct Resolver {
       size_t i = 0;
       for (auto& e : n.asSequence()) resolveNode(e, key_path + "[" + std::to_string(i++) + "]", cur_file);
     } else if (auto t = yamlu::scalarText(n)) {
-      std::smatch m;
-      if (std::regex_match(*t, m, kInclude)) {
-        const std::string inc = resolvePath(m[1].str(), fs::path(cur_file).parent_path().string());
+      if (const auto path = includePath(*t)) {
+        const std::string inc = resolvePath(*path, fs::path(cur_file).parent_path().string());
         if (!fileExists(inc))
           throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path +
                             "': included file not found: " + inc);

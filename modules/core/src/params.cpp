@@ -101,7 +101,7 @@ Params& Params::operator=(const Params& o) {
 
 Params Params::fromYaml(const std::string& yaml_text) {
   Params p;
-  yaml y = yaml::FromText(yaml_text);
+  yaml y = yamlu::parseYamlText(yaml_text, "parameters");
   if (!y.isNullNode() && !y.isMap()) throw ConfigError("parameters must be a YAML map, got: " + yaml_text);
   if (y.isMap()) {
     *p.y_ = y;
@@ -287,7 +287,7 @@ Params Params::resolve(const std::vector<ParamSpec>& specs, const yaml* given, c
 
 Params Params::resolve(const std::vector<ParamSpec>& specs, const std::string& yaml_text,
                        const std::string& base_dir) {
-  yaml y = yaml_text.empty() ? yaml() : yaml::FromText(yaml_text);
+  yaml y = yaml_text.empty() ? yaml() : yamlu::parseYamlText(yaml_text, "parameters");
   return resolve(specs, &y, SourceLocation{}, base_dir);
 }
 
@@ -383,7 +383,7 @@ std::vector<std::string> Params::keys() const {
 }
 
 void Params::set(const std::string& key, const std::string& yaml_value) {
-  yaml d = yaml::FromText("v: " + yaml_value);
+  yaml d = yamlu::parseYamlText("v: " + yaml_value, "value of parameter '" + key + "'");
   y_->asMap()[node_t(key)] = d.asMap().begin()->second;
   given_.insert(key);
 }

@@ -84,6 +84,50 @@ std::vector<std::string> keysInOrder(const node_t& m) {
   return out;
 }
 
+size_t invalidUtf8(const std::string& s) {
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const size_t n = s.size();
+  size_t i = 0;
+  while (i < n) {
+    const unsigned char c = p[i];
+    if (c < 0x80) {
+      i++;
+      continue;
+    }
+    size_t len;
+    uint32_t cp;
+    if (c >= 0xC2 && c <= 0xDF) {
+      len = 2, cp = c & 0x1F;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      len = 3, cp = c & 0x0F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      len = 4, cp = c & 0x07;
+    } else {
+      return i;  // continuation byte without a lead, 0xC0/0xC1 (overlong) or > 0xF4
+    }
+    if (i + len > n) return i;
+    for (size_t k = 1; k < len; k++) {
+      if ((p[i + k] & 0xC0) != 0x80) return i;
+      cp = (cp << 6) | (p[i + k] & 0x3F);
+    }
+    if ((len == 3 && cp < 0x800) || (len == 4 && cp < 0x10000) || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
+      return i;
+    i += len;
+  }
+  return std::string::npos;
+}
+
+size_t lineOf(const std::string& s, size_t pos) {
+  return 1 + static_cast<size_t>(std::count(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(std::min(pos, s.size())), '\n'));
+}
+
+mrpt::containers::yaml parseYamlText(const std::string& text, const std::string& what) {
+  if (const size_t bad = invalidUtf8(text); bad != std::string::npos)
+    throw ConfigError(what + ":" + std::to_string(lineOf(text, bad)) + ": not valid UTF-8 text (byte " +
+                      std::to_string(bad) + "); YAML files must be UTF-8");
+  return mrpt::containers::yaml::FromText(text);
+}
+
 size_t editDistance(const std::string& a, const std::string& b) {
   std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
   for (size_t j = 0; j <= b.size(); j++) prev[j] = j;

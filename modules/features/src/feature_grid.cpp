@@ -30,9 +30,16 @@ ImageBounds computeImageBounds(const PinholeCamera& cam) {
 FeatureGrid::FeatureGrid(const Frame& frame, const ImageBounds& bounds) { build(frame.keypoints_un, bounds); }
 
 bool FeatureGrid::posInGrid(float x, float y, int& cx, int& cy) const {
-  cx = static_cast<int>(std::round((x - bounds_.min_x) * inv_w_));
-  cy = static_cast<int>(std::round((y - bounds_.min_y) * inv_h_));
-  return cx >= 0 && cx < kCols && cy >= 0 && cy < kRows;
+  // Range-checked as floats first: a far-off or non-finite coordinate must
+  // not be converted to int (undefined behaviour).
+  const float fx = std::round((x - bounds_.min_x) * inv_w_), fy = std::round((y - bounds_.min_y) * inv_h_);
+  if (!(fx >= 0.f && fx < static_cast<float>(kCols) && fy >= 0.f && fy < static_cast<float>(kRows))) {
+    cx = cy = -1;
+    return false;
+  }
+  cx = static_cast<int>(fx);
+  cy = static_cast<int>(fy);
+  return true;
 }
 
 void FeatureGrid::build(const std::vector<cv::KeyPoint>& kps, const ImageBounds& bounds) {

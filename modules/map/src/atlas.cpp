@@ -84,6 +84,9 @@ class Reader {
  public:
   explicit Reader(const std::string& path) : f_(path, std::ios::binary), path_(path) {
     if (!f_) throw DataError("atlas file not found or unreadable: " + path);
+    f_.seekg(0, std::ios::end);
+    size_ = static_cast<uint64_t>(std::max<std::streamoff>(0, f_.tellg()));
+    f_.seekg(0, std::ios::beg);
   }
   template <class T>
   T get() {
@@ -102,10 +105,16 @@ class Reader {
     pos_ += got;
     return true;
   }
-  /** A count field, checked against a sanity limit. */
-  uint64_t count(uint64_t limit, const char* what) {
+  /** A count field, checked against a sanity limit and against the bytes
+   *  left in the file (each item takes at least `item_bytes`), so that
+   *  no count drives an allocation the file cannot fill. */
+  uint64_t count(uint64_t limit, const char* what, uint64_t item_bytes) {
     const uint64_t n = get<uint64_t>();
     if (n > limit) fail(std::string("implausible ") + what + " count " + std::to_string(n));
+    const uint64_t left = size_ > pos_ ? size_ - pos_ : 0;
+    if (n > left / item_bytes)
+      fail(std::string(what) + " count " + std::to_string(n) + " needs at least " + std::to_string(n * item_bytes) +
+           " bytes, the file has " + std::to_string(left) + " left");
     return n;
   }
   [[noreturn]] void fail(const std::string& what) {
@@ -116,7 +125,8 @@ class Reader {
  private:
   std::ifstream f_;
   std::string path_;
-  uint64_t pos_ = 0;  ///< bytes read so far
+  uint64_t pos_ = 0;   ///< bytes read so far
+  uint64_t size_ = 0;  ///< file size
 };
 
 void putPose(Writer& w, const SE3& T) {
@@ -228,13 +238,18 @@ CameraIntrinsics readIntrinsics(Reader& r) {
   for (float& x : v) x = r.get<float>();
   c.fx = v[0], c.fy = v[1], c.cx = v[2], c.cy = v[3], c.invfx = v[4], c.invfy = v[5], c.bf = v[6], c.close_depth = v[7];
   c.bounds = {v[8], v[9], v[10], v[11]};
-  if (!(c.fx > 0) || !c.bounds.valid()) r.fail("bad keyframe intrinsics");
+  for (float x : v)
+    if (!std::isfinite(x)) r.fail("non-finite keyframe intrinsics");
+  // The image bounds size the feature grid: at least a pixel, at most 1e5.
+  const float bw = c.bounds.max_x - c.bounds.min_x, bh = c.bounds.max_y - c.bounds.min_y;
+  if (!(c.fx > 0) || !(c.fy > 0) || !(bw >= 1 && bw <= 1e5f) || !(bh >= 1 && bh <= 1e5f))
+    r.fail("bad keyframe intrinsics");
   return c;
 }
 
 /** Keypoints, depths, labels and descriptors of one keyframe into `f`. */
 void readKeypoints(Reader& r, int32_t n_levels, Frame& f) {
-  const uint64_t n = r.count(1'000'000, "keypoint");
+  const uint64_t n = r.count(1'000'000, "keypoint", 5 * 4 + 4 + 4 + 4 + 1 + 1 + 2 + 4 + 32);
   f.keypoints_un.resize(n);
   f.depth.resize(n);
   f.u_right.resize(n);
@@ -242,6 +257,8 @@ void readKeypoints(Reader& r, int32_t n_levels, Frame& f) {
   for (uint64_t i = 0; i < n; i++) {
     float kv[5];
     for (float& x : kv) x = r.get<float>();
+    for (float x : kv)
+      if (!std::isfinite(x)) r.fail("non-finite keypoint");
     const int32_t oct = r.get<int32_t>();
     if (oct < 0 || oct >= n_levels) r.fail("keypoint octave out of range");
     f.keypoints_un[i] = cv::KeyPoint(kv[0], kv[1], kv[2], kv[3], kv[4], oct);
@@ -278,7 +295,7 @@ KeyFrameRecord readKeyFrame(Reader& r, const std::string& path, const Expected& 
                     std::to_string(exp.cam->fx) + ")");
   const SE3 T = getPose(r);
   rec.parent = r.get<int64_t>();
-  const uint64_t n_loops = r.count(100000, "loop edge");
+  const uint64_t n_loops = r.count(100000, "loop edge", 8);
   for (uint64_t l = 0; l < n_loops; l++) rec.loops.push_back(r.get<int64_t>());
   const bool not_erase = r.get<uint8_t>() != 0;
   readKeypoints(r, n_levels, f);
@@ -308,7 +325,7 @@ MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& k
   if (label > 2) r.fail("point label out of range");
   mp->label = static_cast<KpLabel>(label);
   mp->active = r.get<uint8_t>() != 0;
-  const uint64_t n_obs = r.count(1'000'000, "observation");
+  const uint64_t n_obs = r.count(1'000'000, "observation", 8 + 4);
   for (uint64_t o = 0; o < n_obs; o++) {
     const int64_t kid = r.get<int64_t>();
     const int32_t idx = r.get<int32_t>();
@@ -329,7 +346,7 @@ std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected&
                              int64_t& max_pt) {
   auto m = std::make_shared<Map>(r.get<int64_t>());
   const int64_t origin_id = r.get<int64_t>();
-  const uint64_t n_kf = r.count(10'000'000, "keyframe");
+  const uint64_t n_kf = r.count(10'000'000, "keyframe", 8 + 4 + 8 + 12 * 4 + 4 + 4 + 7 * 8 + 8 + 8 + 1 + 8);
   std::map<int64_t, KeyFramePtr> kfs;
   std::vector<KeyFrameRecord> in_order;
   for (uint64_t k = 0; k < n_kf; k++) {
@@ -347,7 +364,7 @@ std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected&
   }
   for (auto& rec : in_order)
     if (rec.kf->id != origin_id) m->addKeyFrame(rec.kf);
-  const uint64_t n_pt = r.count(100'000'000, "point");
+  const uint64_t n_pt = r.count(100'000'000, "point", 8 + 8 + 3 * 8 + 32 + 8 + 2 + 4 + 1 + 1 + 8);
   for (uint64_t k = 0; k < n_pt; k++) {
     MapPointPtr mp = readPoint(r, m.get(), kfs);
     max_pt = std::max(max_pt, mp->id);
@@ -375,7 +392,7 @@ void Atlas::load(const std::string& path) {
     throw DataError(path + ": atlas file version " + std::to_string(version) + " is not supported (this dslam reads version " +
                     std::to_string(kFileVersion) + "); save it again with this version");
   if (r.get<uint32_t>() != kEndian) throw DataError(path + ": atlas file written on a machine with another byte order");
-  const uint64_t n_maps = r.count(1 << 16, "map");
+  const uint64_t n_maps = r.count(1 << 16, "map", 8 + 8 + 8 + 8);
   const int64_t current_id = r.get<int64_t>();
   const Expected exp{exp_cam_, exp_scale_};
   std::vector<std::shared_ptr<Map>> maps;

@@ -115,11 +115,19 @@ std::string slurp(const std::string& path, const char* format) {
     char buf[1 << 16];
     try {
       size_t r;
-      while ((r = f.read(buf, sizeof buf)) > 0) out.append(buf, r);
+      while ((r = f.read(buf, sizeof buf)) > 0) {
+        out.append(buf, r);
+        if (out.size() > kMaxVocabularyBytes)  // a gzip bomb, not a vocabulary
+          throw DataError(path + ": more than " + std::to_string(kMaxVocabularyBytes >> 20) +
+                          " MiB of data after decompression, larger than any vocabulary (ORBvoc.txt is ~145 MB)");
+      }
     } catch (const DataError& e) {
       throw DataError(std::string(e.what()) + " in " + format);
     }
   } else {
+    if (f.size() > kMaxVocabularyBytes)
+      throw DataError(path + ": " + std::to_string(f.size() >> 20) + " MiB, larger than any vocabulary (limit " +
+                      std::to_string(kMaxVocabularyBytes >> 20) + " MiB; ORBvoc.txt is ~145 MB) in " + format);
     out.resize(f.size());
     out.resize(f.read(out.data(), out.size()));
   }

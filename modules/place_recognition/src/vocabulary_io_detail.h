@@ -60,7 +60,11 @@ class File {
 bool isGzip(const std::string& path);
 /** First `n` bytes of the file, decompressed if it is gzip. */
 std::string peek(const std::string& path, size_t n, bool* gz);
-/** Whole file, decompressed if gzip; `format` names it in errors. */
+/** Largest vocabulary data read into memory (after decompression): k=10
+ *  L=6 ORBvoc.txt is ~145 MB, its binary form ~40 MB. */
+constexpr uint64_t kMaxVocabularyBytes = uint64_t(512) << 20;
+/** Whole file, decompressed if gzip; `format` names it in errors. Throws
+ *  DataError beyond kMaxVocabularyBytes. */
 std::string slurp(const std::string& path, const char* format);
 /** The first line holds four integers (ORBvoc.txt header). */
 bool looksLikeText(const std::string& head);

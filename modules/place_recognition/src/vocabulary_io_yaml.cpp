@@ -54,7 +54,10 @@ bool parseDescriptor(const std::string& s, std::array<uint8_t, 32>& d) {
 Vocabulary VocabularyIo::loadYaml(const std::string& path) {
   const std::string what = path + " (" + kYamlName + ")";
   try {
-    cv::FileStorage fs(path, cv::FileStorage::READ);
+    // Read (and decompress) here, bounded by kMaxVocabularyBytes, rather than
+    // let OpenCV inflate a .gz of any size.
+    const std::string text = vocio::slurp(path, kYamlName);
+    cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
     if (!fs.isOpened()) throw DataError(what + ": cannot be opened or parsed");
     cv::FileNode voc = fs["vocabulary"];
     if (voc.empty() || !voc.isMap()) throw DataError(what + ": no 'vocabulary' map at the top level");
@@ -136,6 +139,10 @@ Vocabulary VocabularyIo::loadYaml(const std::string& path) {
     return Vocabulary::fromTree(k, L, wt, st, parents, descs, words, weights, what);
   } catch (const cv::Exception& e) {
     throw DataError(what + ": cannot be parsed: " + e.msg);
+  } catch (const DataError&) {
+    throw;
+  } catch (const std::exception& e) {  // OpenCV's YAML parser also throws std::length_error on some broken keys
+    throw DataError(what + ": cannot be parsed (" + e.what() + ")");
   }
 }
 

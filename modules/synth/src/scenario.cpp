@@ -493,6 +493,15 @@ void validateScenario(const Scenario& s) {
     o << "[" << p.x() << ", " << p.y() << ", " << p.z() << "]";
     return o.str();
   };
+  // Validation (and rendering) work grows with frames x (objects + people)
+  // x events: bounded, so that a small file cannot ask for hours of checks.
+  const size_t n_ent = s.objects.size() + s.people.size();
+  if (s.events.size() > kMaxEvents)
+    fail("events", std::to_string(s.events.size()) + " events, at most " + std::to_string(kMaxEvents));
+  if (static_cast<uint64_t>(s.frames) * n_ent > kMaxFrameEntities)
+    fail("", std::to_string(s.frames) + " frames x " + std::to_string(n_ent) + " objects and people = " +
+                 std::to_string(static_cast<uint64_t>(s.frames) * n_ent) + ", more than " +
+                 std::to_string(kMaxFrameEntities) + " (fewer frames or fewer objects)");
   const std::string room_desc = "the room (x in +-" + std::to_string(half.x()).substr(0, 5) + ", y in +-" +
                                 std::to_string(half.y()).substr(0, 5) + ")";
   for (const auto& o : s.objects) {
@@ -528,13 +537,21 @@ void validateScenario(const Scenario& s) {
     if (!inside(c, 0.1, true))
       fail(tkey, "camera at " + fmt(c) + " (frame " + std::to_string(f) + ") is outside " + room_desc +
                      " or closer than 0.1 m to a wall");
+    // Primitives (articulated people especially) are costly to build: only
+    // for the objects and people whose bounding sphere the camera is in.
     for (size_t i = 0; i < s.objects.size(); i++) {
+      const ObjectState os = scene.objectStateAt(i, s.time(f), f);
+      const Vec3& sz = s.objects[i].size;
+      if (!os.present || (c - os.T_wo.translation()).norm() > 1.5 * std::hypot(sz.x(), sz.y(), sz.z()) + 0.1) continue;
       for (const auto& prim : scene.objectPrimitives(i, f, s.time(f)))
         if (signedDistance(prim, c) < 0.05)
           fail(s.objects[i].key, "camera inside object '" + s.objects[i].name + "' at frame " + std::to_string(f) +
                                      " (camera at " + fmt(c) + ")");
     }
     for (size_t i = 0; i < s.people.size(); i++) {
+      if (!scene.personPresent(i, f) ||
+          (c - scene.personRoot(i, s.time(f)).translation()).norm() > 1.5 * s.people[i].height + 0.1)
+        continue;
       for (const auto& prim : scene.personPrimitives(i, f, s.time(f)))
         if (signedDistance(prim, c) < 0.05)
           fail(s.people[i].key, "camera inside person '" + s.people[i].name + "' at frame " + std::to_string(f) +

@@ -55,8 +55,11 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
     text << line << "\n";
   }
   mrpt::containers::yaml y;
+  const std::string txt = text.str();
+  if (const size_t bad = yamlu::invalidUtf8(txt); bad != std::string::npos)  // libfyaml can hang on it
+    throw DataError(file + ": not valid UTF-8 text (byte " + std::to_string(bad) + " after dropping the %YAML line)");
   try {
-    y = mrpt::containers::yaml::FromText(text.str());
+    y = mrpt::containers::yaml::FromText(txt);
   } catch (const std::exception& e) {
     throw DataError(file + ": cannot parse YAML: " + e.what());
   }
@@ -88,8 +91,10 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
     for (size_t i = 0; i < d.size(); i++) info.cam.dist[i] = d[i];
   }
   const auto res = numbers(yamlu::findValue(root, "resolution"), file, "resolution");
-  if (res.size() != 2 || !(res[0] > 0) || !(res[1] > 0))
-    throw DataError(file + ": 'resolution' must be [width, height]");
+  // Whole pixel counts in 1..65535 (a larger value would not even fit an int).
+  if (res.size() != 2 || !(res[0] >= 1 && res[0] <= 65535 && res[0] == std::floor(res[0])) ||
+      !(res[1] >= 1 && res[1] <= 65535 && res[1] == std::floor(res[1])))
+    throw DataError(file + ": 'resolution' must be [width, height], whole numbers of pixels in 1..65535");
   info.cam.width = static_cast<int>(res[0]);
   info.cam.height = static_cast<int>(res[1]);
   const node_t* tn = yamlu::findValue(root, "T_BS");

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 
@@ -46,6 +47,15 @@ Kind kindOf(const CObservation& o) {
   if (dynamic_cast<const CObservationStereoImages*>(&o)) return Kind::Stereo;
   if (dynamic_cast<const CObservationImage*>(&o)) return Kind::Mono;
   return Kind::None;
+}
+
+/** A bool member that MRPT deserialised: MRPT reads the file's byte
+ *  straight into the bool, so it can hold any value (33, ...), and loading
+ *  such a bool is undefined behaviour. Read its byte instead. */
+bool flag(const bool& b) {
+  unsigned char byte = 0;
+  std::memcpy(&byte, &b, 1);
+  return byte != 0;
 }
 
 struct FrameRef {
@@ -217,7 +227,7 @@ void RawlogDataset::configure(const Params& p, const PluginContext& ctx) {
         c.left = rawlog::fromTCamera(m.cameraParams, what);
       } else {
         const auto& st = dynamic_cast<const CObservationStereoImages&>(*o);
-        c.sensor = st.hasImageRight ? SensorType::Stereo : SensorType::Monocular;
+        c.sensor = flag(st.hasImageRight) ? SensorType::Stereo : SensorType::Monocular;
         c.left = rawlog::fromTCamera(st.leftCamera, what);
         c.right = rawlog::fromTCamera(st.rightCamera, what);
         c.T_left_right = rawlog::toSE3(mrpt::poses::CPose3D(st.rightCameraPose));
@@ -332,8 +342,8 @@ SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) 
   f.timestamp = ref.t;
   f.image_path = I.file;
   if (auto r = std::dynamic_pointer_cast<CObservation3DRangeScan>(o)) {
-    if (!r->hasIntensityImage) throw DataError(where + ": 3D range scan without intensity image");
-    if (!r->hasRangeImage) throw DataError(where + ": 3D range scan without range image");
+    if (!flag(r->hasIntensityImage)) throw DataError(where + ": 3D range scan without intensity image");
+    if (!flag(r->hasRangeImage)) throw DataError(where + ": 3D range scan without range image");
     checkExternal(r->intensityImage, "intensity image");
     if (r->rangeImage_isExternallyStored()) {
       const std::string path = r->rangeImage_getExternalStorageFileAbsolutePath("");
@@ -352,7 +362,7 @@ SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) 
     cv::Mat depth;
     raw.convertTo(depth, CV_32F, static_cast<double>(r->rangeUnits));
     const PinholeCamera kd = rawlog::fromTCamera(r->cameraParams, where);
-    if (!r->range_is_depth) {  // range along the ray -> depth along the optical axis
+    if (!flag(r->range_is_depth)) {  // range along the ray -> depth along the optical axis
       for (int y = 0; y < depth.rows; y++) {
         float* d = depth.ptr<float>(y);
         for (int x = 0; x < depth.cols; x++) {
@@ -372,15 +382,15 @@ SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) 
                         " and intensity image " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
                         " differ in size and register_depth is false");
       f.depth = depth;
-      if (depth_raw && r->range_is_depth) *depth_raw = raw;
+      if (depth_raw && flag(r->range_is_depth)) *depth_raw = raw;
     }
     if (units) *units = static_cast<double>(r->rangeUnits);
     r->unload();
   } else if (auto st = std::dynamic_pointer_cast<CObservationStereoImages>(o)) {
     checkExternal(st->imageLeft, "left image");
-    if (st->hasImageRight) checkExternal(st->imageRight, "right image");
+    if (flag(st->hasImageRight)) checkExternal(st->imageRight, "right image");
     f.image = toMat(st->imageLeft, "left image");
-    if (st->hasImageRight) {
+    if (flag(st->hasImageRight)) {
       f.image_right = toMat(st->imageRight, "right image");
       f.image_right_path = I.file;
     }

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -47,6 +48,10 @@ json parseJsonFile(const std::string& file) {
     std::string what = e.what();
     if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
     throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " + what);
+  } catch (const json::exception& e) {  // e.g. out_of_range: "number overflow parsing '1e58140'"
+    std::string what = e.what();
+    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw DataError(file + ": invalid JSON: " + what);
   }
 }
 
@@ -114,8 +119,31 @@ void writePng(const std::string& file, const cv::Mat& m) {
   if (!ok) throw DataError("cannot write " + file);
 }
 
+/** Label images are PNG (docs/detectors.md). The header is checked before
+ *  OpenCV sees the file: cv::imread decodes any format it knows by its
+ *  content and allocates whatever size the header announces (up to 2^30
+ *  pixels), so a 20-byte PPM header named .png would cost gigabytes. */
+void checkPngHeader(const std::string& file, const std::string& what) {
+  constexpr uint64_t kMaxPixels = uint64_t(1) << 26;  // 64 Mpx, e.g. 8192 x 8192
+  static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  unsigned char h[24] = {};
+  std::ifstream f(file, std::ios::binary);
+  f.read(reinterpret_cast<char*>(h), sizeof h);
+  if (f.gcount() < static_cast<std::streamsize>(sizeof h) || std::memcmp(h, kSig, 8) != 0 ||
+      std::memcmp(h + 12, "IHDR", 4) != 0)
+    throw DataError(file + ": " + what + " is not a PNG file (label images are PNG, see docs/detectors.md)");
+  auto be32 = [](const unsigned char* p) {
+    return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
+  };
+  const uint32_t w = be32(h + 16), hh = be32(h + 20);
+  if (w == 0 || hh == 0 || uint64_t(w) * hh > kMaxPixels)
+    throw DataError(file + ": " + what + " of " + std::to_string(w) + "x" + std::to_string(hh) +
+                    " pixels (PNG header): not in 1.." + std::to_string(kMaxPixels) + " pixels");
+}
+
 cv::Mat readImage(const std::string& file, int flags, const std::string& what) {
   if (!fileExists(file)) throw DataError(what + " not found: " + file);
+  checkPngHeader(file, what);
   cv::Mat m = cv::imread(file, flags);
   if (m.empty()) throw DataError("cannot read " + what + " " + file + " (corrupt or unsupported)");
   return m;

@@ -25,6 +25,18 @@ const node_t* findKey(const node_t& m, const std::string& key);
 const node_t* findValue(const node_t& m, const std::string& key);
 /** Keys of a map node in file order (by line, then column). */
 std::vector<std::string> keysInOrder(const node_t& m);
+/** Byte offset of the first byte of `s` that is not part of a valid UTF-8
+ *  sequence (overlong forms, surrogates and code points above U+10FFFF are
+ *  invalid), or std::string::npos. YAML text must be UTF-8, and libfyaml
+ *  (under MRPT's yaml) loops forever on some invalid bytes, e.g. "%\x80":
+ *  every text is checked before it is parsed. */
+size_t invalidUtf8(const std::string& s);
+/** 1-based line number of byte offset `pos` in `s`. */
+size_t lineOf(const std::string& s, size_t pos);
+/** mrpt::containers::yaml::FromText after the UTF-8 check; `what` names
+ *  the source ("file.yaml", "parameter 'x'") in the ConfigError. */
+mrpt::containers::yaml parseYamlText(const std::string& text, const std::string& what);
+
 /** Levenshtein distance, for "did you mean" hints. */
 size_t editDistance(const std::string& a, const std::string& b);
 /** ", did you mean 'x'?" if a candidate is close, else "". */

@@ -7,6 +7,8 @@
  *  x in [-sx/2, sx/2], y in [-sy/2, sy/2], z in [0, sz]. Camera frame: OpenCV
  *  (x right, y down, z forward). Poses are T_wc (camera to world). */
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -182,6 +184,10 @@ Scenario parseScenario(const std::string& yaml_text, const std::string& pseudo_f
                        const std::string& base_dir = ".", const ScenarioOverrides& ov = {});
 /** Applies overrides (resolution scales intrinsics) and re-validates. */
 void applyOverrides(Scenario& s, const ScenarioOverrides& ov);
+/** Size limits checked by validateScenario(): events, and frames x (objects
+ *  + people) (e.g. 100000 frames with 20 objects, 600 frames with 3000). */
+constexpr size_t kMaxEvents = 256;
+constexpr uint64_t kMaxFrameEntities = 2'000'000;
 /** Geometric validation (camera inside objects / outside the room, speed
  *  limits); called by the loaders. */
 void validateScenario(const Scenario& s);
