@@ -1,0 +1,105 @@
+// MapObjects: the robust 3D box and long-term data association (Changing-SLAM
+// Algorithm 1).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "dslam/map/map_object.h"
+
+using namespace dslam;
+
+namespace {
+
+/** `n` points around `c` (uniform in a cube of side `s`), ids from `id0`. */
+std::vector<MapPointPtr> blob(const Eigen::Vector3d& c, int n, int64_t id0, double s = 0.2, int cls = 62) {
+  std::mt19937 rng(static_cast<unsigned>(id0 + 1));
+  std::uniform_real_distribution<double> u(-s / 2, s / 2);
+  std::vector<MapPointPtr> out;
+  for (int i = 0; i < n; i++) {
+    auto p = std::make_shared<MapPoint>(id0 + i, c + Eigen::Vector3d(u(rng), u(rng), u(rng)), nullptr, nullptr);
+    p->class_id = static_cast<int16_t>(cls);
+    out.push_back(p);
+  }
+  return out;
+}
+
+ObjectCandidate candidate(int cls, const std::vector<MapPointPtr>& pts) {
+  ObjectCandidate c;
+  c.class_id = cls;
+  c.points = pts;
+  for (const auto& p : pts) c.centroid += p->pos;
+  c.centroid /= static_cast<double>(pts.size());
+  c.box = cv::Rect2f(10, 20, 30, 40);
+  return c;
+}
+
+}  // namespace
+
+TEST(MapObject, RobustBoxIgnoresAFewStrayPoints) {
+  std::vector<Eigen::Vector3d> pts;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 400; i++) pts.emplace_back(u(rng), 2 + u(rng), -1 + 0.5 * u(rng));
+  pts.emplace_back(10, 10, 10);  // two stray points (e.g. background behind the object)
+  pts.emplace_back(-9, -9, -9);
+  Eigen::Vector3d lo, hi;
+  robustBox(pts, lo, hi);
+  // 5% of 402 = 20 points per side: the median of the 20 extremes is ~2.5% in.
+  EXPECT_NEAR(lo.x(), 0.025, 0.02);
+  EXPECT_NEAR(hi.x(), 0.975, 0.02);
+  EXPECT_NEAR(lo.y(), 2.025, 0.02);
+  EXPECT_NEAR(hi.z(), -0.5125, 0.02);
+  robustBox({}, lo, hi);
+  EXPECT_EQ(lo, Eigen::Vector3d::Zero());
+}
+
+TEST(MapObject, LongTermDataAssociationMergesNearAndCreatesFar) {
+  std::map<int64_t, MapObjectPtr> objects;
+  LtdaParams p;  // threshold 0.25 m
+  int64_t next = 100;
+  auto a = blob({1, 0, 0}, 30, 0);
+  auto r = associateObjects(objects, {candidate(62, a)}, /*kf*/ 5, 1.0, p, next);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_TRUE(r[0].created);
+  EXPECT_EQ(r[0].object, 100);
+  EXPECT_EQ(r[0].previous_seen_kf, -1);
+  const MapObject& o = *objects.at(100);
+  EXPECT_EQ(o.numPoints(), 30u);
+  EXPECT_LT((o.centroid - Eigen::Vector3d(1, 0, 0)).norm(), 0.05);
+  EXPECT_EQ(o.first_seen_kf, 5);
+  EXPECT_EQ(a[0]->map_object, 100);
+
+  // The same chair 10 cm further (tracking noise), a chair 1 m away and a
+  // plant (another class) at the first place, seen by keyframe 9.
+  auto b = blob({1.1, 0, 0}, 20, 1000);
+  auto c = blob({2.0, 0, 0}, 15, 2000);
+  auto d = blob({1.0, 0, 0}, 12, 3000, 0.2, 64);
+  r = associateObjects(objects, {candidate(62, b), candidate(62, c), candidate(64, d)}, 9, 2.0, p, next);
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_FALSE(r[0].created);
+  EXPECT_EQ(r[0].object, 100);
+  EXPECT_NEAR(r[0].distance, 0.1, 0.05);
+  EXPECT_EQ(r[0].previous_seen_kf, 5);
+  EXPECT_TRUE(r[1].created);
+  EXPECT_TRUE(r[2].created);
+  EXPECT_EQ(objects.size(), 3u);
+  EXPECT_EQ(objects.at(100)->numPoints(), 50u);  // points combined
+  EXPECT_EQ(objects.at(100)->last_seen_kf, 9);
+  EXPECT_EQ(objects.at(100)->sightings, 2);
+  EXPECT_EQ(objects.at(r[2].object)->class_id, 64);
+
+  // One object, two candidates within the threshold: the nearer one joins it.
+  auto e = blob({1.2, 0, 0}, 10, 4000);
+  auto f = blob({1.02, 0.05, 0}, 10, 5000);
+  r = associateObjects(objects, {candidate(62, e), candidate(62, f)}, 12, 3.0, p, next);
+  EXPECT_EQ(r[1].object, 100);
+  EXPECT_TRUE(r[0].created);
+
+  // Bad points leave the object at the next refresh.
+  for (int i = 0; i < 10; i++) a[i]->bad = true;
+  objects.at(100)->refresh();
+  EXPECT_EQ(objects.at(100)->numPoints(), 50u);
+  // Deactivation reaches the points.
+  objects.at(100)->setActive(false);
+  EXPECT_FALSE(b[0]->active);
+}
