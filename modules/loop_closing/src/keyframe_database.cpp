@@ -8,12 +8,31 @@ namespace dslam {
 
 KeyFrameDatabase::KeyFrameDatabase(std::shared_ptr<const Vocabulary> voc) : voc_(std::move(voc)), db_(*voc_) {}
 
-void KeyFrameDatabase::computeBow(const cv::Mat& descriptors, BowVector& bow, FeatureVector& feat) const {
-  voc_->transform(descriptors, bow, feat, std::max(1, voc_->levels() - 2));
+void KeyFrameDatabase::computeBow(const cv::Mat& descriptors, BowVector& bow, FeatureVector& feat,
+                                  const std::vector<char>* use) const {
+  if (descriptors.empty()) {
+    bow.clear();
+    feat.clear();
+    return;
+  }
+  if (descriptors.type() != CV_8U || descriptors.cols != 32 || !descriptors.isContinuous()) {
+    voc_->transform(descriptors, bow, feat, std::max(1, voc_->levels() - 2));  // reports the problem
+    return;
+  }
+  voc_->transform(descriptors.ptr<uint8_t>(), static_cast<size_t>(descriptors.rows), descriptors.step[0], bow, &feat,
+                  std::max(1, voc_->levels() - 2), use);
 }
 
 void KeyFrameDatabase::computeBow(KeyFrame* kf) const {
-  if (kf->bow.empty()) computeBow(kf->descriptors, kf->bow, kf->feat);
+  if (!kf->bow.empty()) return;
+  std::vector<char> use(kf->size(), 1);
+  bool all = true;
+  for (size_t i = 0; i < kf->size(); i++) {
+    const MapPointPtr& mp = kf->points[i];
+    use[i] = kf->usable(i) && !(mp && !mp->active);
+    all &= use[i] != 0;
+  }
+  computeBow(kf->descriptors, kf->bow, kf->feat, all ? nullptr : &use);
 }
 
 void KeyFrameDatabase::add(KeyFrame* kf) {

@@ -214,7 +214,7 @@ void Vocabulary::transform(const cv::Mat& descriptors, BowVector& bow, FeatureVe
 }
 
 void Vocabulary::transform(const uint8_t* data, size_t n, size_t stride, BowVector& bow, FeatureVector* fv,
-                           int levelsup) const {
+                           int levelsup, const std::vector<char>* use) const {
   if (empty()) throw DataError("vocabulary transform: the vocabulary is empty (load or train one first)");
   struct Item {
     WordId word;
@@ -225,6 +225,7 @@ void Vocabulary::transform(const uint8_t* data, size_t n, size_t stride, BowVect
   std::vector<Item> items;
   items.reserve(n);
   for (size_t i = 0; i < n; ++i) {
+    if (use && (i >= use->size() || !(*use)[i])) continue;
     Item it;
     it.idx = static_cast<uint32_t>(i);
     it.word = transform(data + i * stride, it.weight, it.node, levelsup);

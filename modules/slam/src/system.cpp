@@ -132,6 +132,19 @@ struct System::DetectorSlot {
   }
 };
 
+namespace {
+
+/** Bag of words of a frame from its usable keypoints: dynamic ones (people,
+ *  moving objects) do not vote in relocalisation or loop detection. */
+void computeFrameBow(const KeyFrameDatabase& db, const TrackedFrame& f, BowVector& bow, FeatureVector& feat) {
+  std::vector<char> use(f.size(), 1);
+  bool all = true;
+  for (size_t i = 0; i < f.size(); i++) all &= (use[i] = f.usable(i)) != 0;
+  db.computeBow(f.f.descriptors, bow, feat, all ? nullptr : &use);
+}
+
+}  // namespace
+
 // ---------------------------------------------------------------------------
 
 System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<Backend> backend, config::Mode mode,
@@ -172,7 +185,7 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
     kfdb_ = std::make_shared<KeyFrameDatabase>(voc);
     auto db = kfdb_;
     mapper_->setBowFunction([db](KeyFrame* kf) { db->computeBow(kf); });
-    tracker_->setBowFunction([db](TrackedFrame& f) { db->computeBow(f.f.descriptors, f.bow, f.feat); });
+    tracker_->setBowFunction([db](TrackedFrame& f) { computeFrameBow(*db, f, f.bow, f.feat); });
     tracker_->setRelocCandidates([db, this](const TrackedFrame& f) {
       return db->detectRelocalizationCandidates(f.bow, tracker_->map().get());
     });
@@ -204,7 +217,7 @@ void System::indexKeyFrames() {
 
 void System::loadMaps(const std::string& path) {
   if (frames_ > 0) throw Error("loadMaps() must be called before the first frame");
-  if (auto* atlas = dynamic_cast<Atlas*>(maps_.get())) atlas->setExpectedCamera(intrinsics_, scale_);
+  maps_->setExpectedCamera(intrinsics_, scale_);
   maps_->load(path);
   if (kfdb_) kfdb_->clear();
   indexKeyFrames();
@@ -223,7 +236,7 @@ void System::checkPlaceRecognition() {
   std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
   BowVector bow;
   FeatureVector feat;
-  kfdb_->computeBow(f.f.descriptors, bow, feat);
+  computeFrameBow(*kfdb_, f, bow, feat);
   // As loop detection: the weakest score among the reference keyframe's
   // neighbourhood is the bar; candidates outside it that pass hint a loop.
   std::set<int64_t> near;

@@ -13,6 +13,8 @@ namespace dslam {
 class Map;
 class MapPoint;
 class KeyFrame;
+struct CameraIntrinsics;
+struct ScaleLevels;
 
 class MapManager : public Plugin {
   DEFINE_VIRTUAL_MRPT_OBJECT(MapManager)
@@ -33,8 +35,21 @@ class MapManager : public Plugin {
     (void)p;
     return true;
   }
-  /** Called after each keyframe insertion (persistence bookkeeping). */
+  /** Called after local mapping has finished a keyframe (its points,
+   *  covisibility and objects are up to date), in the mapping thread;
+   *  persistence bookkeeping. Lock the keyframe's map to change it. */
   virtual void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) { (void)kf; }
+  /** Map managers that filter another one (persistence filters) keep its
+   *  maps and add their own decisions; the pipeline gives each filter the
+   *  map manager listed before it (or a dslam::Atlas). */
+  virtual bool filtersAnother() const { return false; }
+  virtual void setInner(std::shared_ptr<MapManager> inner) { (void)inner; }
+  /** Intrinsics and scale pyramid of the running system: load() checks the
+   *  saved keyframes against them. */
+  virtual void setExpectedCamera(const CameraIntrinsics& cam, std::shared_ptr<const ScaleLevels> scale) {
+    (void)cam;
+    (void)scale;
+  }
   /** Saves / loads every map. Throw Error with a message on failure. */
   virtual void save(const std::string& path) const = 0;
   virtual void load(const std::string& path) = 0;

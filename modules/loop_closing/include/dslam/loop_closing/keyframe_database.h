@@ -21,8 +21,13 @@ class KeyFrameDatabase {
 
   const Vocabulary& vocabulary() const { return *voc_; }
   /** Fills kf->bow / kf->feat (levelsup = levels - 2, ORB-SLAM's depth-2 grouping). */
+  /** Bag of words of a keyframe from the keypoints that may take part in
+   *  place recognition: not dynamic, and without an inactive map point
+   *  (people and moved objects do not vote). */
   void computeBow(KeyFrame* kf) const;
-  void computeBow(const cv::Mat& descriptors, BowVector& bow, FeatureVector& feat) const;
+  /** Bag of words of descriptors; with `use`, only rows i with use[i] != 0. */
+  void computeBow(const cv::Mat& descriptors, BowVector& bow, FeatureVector& feat,
+                  const std::vector<char>* use = nullptr) const;
 
   void add(KeyFrame* kf);
   void erase(KeyFrame* kf);

@@ -38,7 +38,7 @@ class Atlas : public MapManager {
 
   /** Scale pyramid and intrinsics given to loaded keyframes must match the
    *  running system's; load() checks them against these when set. */
-  void setExpectedCamera(const CameraIntrinsics& cam, std::shared_ptr<const ScaleLevels> scale) {
+  void setExpectedCamera(const CameraIntrinsics& cam, std::shared_ptr<const ScaleLevels> scale) override {
     exp_cam_ = cam;
     exp_scale_ = std::move(scale);
   }

@@ -168,9 +168,11 @@ class Vocabulary {
    *  levels() - levelsup (ORB-SLAM uses levelsup = 4 with L = 6). A feature
    *  whose word has weight 0 is in neither vector, as in DBoW2. */
   void transform(const cv::Mat& descriptors, BowVector& bow, FeatureVector& features, int levelsup) const;
-  /** Raw-pointer variants: `n` descriptors of 32 bytes, `stride` bytes apart. */
+  /** Raw-pointer variants: `n` descriptors of 32 bytes, `stride` bytes apart;
+   *  with `use`, only descriptors i with use[i] != 0 count (feature indices
+   *  stay those of the whole set). */
   void transform(const uint8_t* data, size_t n, size_t stride, BowVector& bow, FeatureVector* features,
-                 int levelsup) const;
+                 int levelsup, const std::vector<char>* use = nullptr) const;
 
   /** Similarity of two bag-of-words vectors with scoring(). */
   double score(const BowVector& a, const BowVector& b) const { return bowScore(scoring_, a, b); }
