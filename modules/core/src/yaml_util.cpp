@@ -1,14 +1,11 @@
 #include "dslam/core/yaml_util.h"
 
 #include <algorithm>
-#include <cmath>
-
-#include "dslam/core/error.h"
-
-#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
+
+#include "dslam/core/error.h"
 
 namespace dslam::yamlu {
 
