@@ -2,7 +2,6 @@
 // descriptors (k-means++ seeding, majority-bit centroids) and idf weights.
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -10,6 +9,7 @@
 #include <mutex>
 #include <thread>
 
+#include "dslam/core/descriptor.h"
 #include "dslam/core/error.h"
 #include "dslam/place_recognition/vocabulary.h"
 
@@ -22,8 +22,7 @@ struct D {
 };
 
 inline int dist(const D& a, const D& b) {
-  return std::popcount(a.w[0] ^ b.w[0]) + std::popcount(a.w[1] ^ b.w[1]) + std::popcount(a.w[2] ^ b.w[2]) +
-         std::popcount(a.w[3] ^ b.w[3]);
+  return descriptorDistance(reinterpret_cast<const uint8_t*>(a.w), reinterpret_cast<const uint8_t*>(b.w));
 }
 
 inline uint64_t splitmix64(uint64_t x) {
