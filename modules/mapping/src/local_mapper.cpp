@@ -61,12 +61,16 @@ void LocalMapper::stop() { worker_.stop(); }
 
 void LocalMapper::requestPause() {
   if (!worker_.running()) return;
+  std::lock_guard<std::mutex> lk(pause_mtx_);
+  if (pauses_++ > 0) return;  // already held
   pause_req_ = true;
   abort_ba_ = true;
   worker_.pause();
 }
 
 void LocalMapper::resume() {
+  std::lock_guard<std::mutex> lk(pause_mtx_);
+  if (pauses_ == 0 || --pauses_ > 0) return;
   pause_req_ = false;
   worker_.resume();
 }
