@@ -447,7 +447,7 @@ struct Renderer::Impl {
 
   /** Per-pixel random bits: one 64-bit hash per (frame, stream, pixel). */
   uint64_t pixelHash(int frame, uint64_t stream, int y, int x) const {
-    return mix64(s.seed ^ mix64((static_cast<uint64_t>(frame) << 8) + stream) ^
+    return splitmix64(s.seed ^ splitmix64((static_cast<uint64_t>(frame) << 8) + stream) ^
                  (static_cast<uint64_t>(y) << 32 | static_cast<uint64_t>(x)));
   }
 
