@@ -134,19 +134,16 @@ std::optional<std::string> checkScalar(const ParamSpec& s, ParamType t, const no
     case ParamType::Bool:
       if (!yamlu::parseBool(*txt)) err = "expected bool (true/false), got '" + *txt + "'";
       break;
-    case ParamType::Int: {
-      auto x = yamlu::parseInt(*txt);
-      if (!x)
-        err = "expected an integer, got '" + *txt + "'";
-      else if ((s.min && *x < *s.min) || (s.max && *x > *s.max))
-        err = "value " + *txt + " out of range [" + (s.min ? fmtDouble(*s.min) : "-inf") + ", " +
-              (s.max ? fmtDouble(*s.max) : "inf") + "]";
-      break;
-    }
+    case ParamType::Int:
     case ParamType::Double: {
-      auto x = yamlu::parseDouble(*txt);
+      const bool is_int = t == ParamType::Int;
+      std::optional<double> x;  // the range check compares as double either way
+      if (!is_int)
+        x = yamlu::parseDouble(*txt);
+      else if (const auto i = yamlu::parseInt(*txt))
+        x = static_cast<double>(*i);
       if (!x)
-        err = "expected a number, got '" + *txt + "'";
+        err = std::string(is_int ? "expected an integer" : "expected a number") + ", got '" + *txt + "'";
       else if ((s.min && *x < *s.min) || (s.max && *x > *s.max))
         err = "value " + *txt + " out of range [" + (s.min ? fmtDouble(*s.min) : "-inf") + ", " +
               (s.max ? fmtDouble(*s.max) : "inf") + "]";
