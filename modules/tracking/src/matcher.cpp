@@ -16,6 +16,16 @@ inline int dist(const Descriptor& a, const cv::Mat& d, size_t row) {
   return descriptorDistance(a.data(), d.ptr<uint8_t>(static_cast<int>(row)));
 }
 
+/** Pixel (u, v) and 1/z of camera point Xc (ORB-SLAM's SearchByProjection
+ *  arithmetic); false when it is behind the camera or outside the image. */
+bool project(const CameraIntrinsics& cam, const Eigen::Vector3d& Xc, float& invz, float& u, float& v) {
+  if (Xc.z() <= 0) return false;
+  invz = static_cast<float>(1.0 / Xc.z());
+  u = cam.fx * Xc.x() * invz + cam.cx;
+  v = cam.fy * Xc.y() * invz + cam.cy;
+  return cam.bounds.contains(u, v);
+}
+
 }  // namespace
 
 int Matcher::dropByOrientation(const std::vector<float>& rot_diff, std::vector<int>& ids,
@@ -91,12 +101,8 @@ int Matcher::searchByProjection(TrackedFrame& cur, const TrackedFrame& last, flo
   for (size_t i = 0; i < last.size(); i++) {
     const MapPointPtr& mp = last.points[i];
     if (!mp || last.outlier[i] || mp->bad || !mp->active) continue;
-    const Eigen::Vector3d Xc = Tcw * mp->pos;
-    if (Xc.z() <= 0) continue;
-    const float invz = static_cast<float>(1.0 / Xc.z());
-    const float u = cur.cam.fx * Xc.x() * invz + cur.cam.cx;
-    const float v = cur.cam.fy * Xc.y() * invz + cur.cam.cy;
-    if (!cur.cam.bounds.contains(u, v)) continue;
+    float invz, u, v;
+    if (!project(cur.cam, Tcw * mp->pos, invz, u, v)) continue;
     const int last_oct = last.f.keypoints_un[i].octave;
     const float r = th * sc.scale[last_oct];
     if (forward)
@@ -142,12 +148,8 @@ int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<co
   for (size_t i = 0; i < kf->points.size(); i++) {
     const MapPointPtr& mp = kf->points[i];
     if (!mp || mp->bad || !mp->active || found.count(mp.get())) continue;
-    const Eigen::Vector3d Xc = Tcw * mp->pos;
-    if (Xc.z() <= 0) continue;
-    const float invz = static_cast<float>(1.0 / Xc.z());
-    const float u = F.cam.fx * Xc.x() * invz + F.cam.cx;
-    const float v = F.cam.fy * Xc.y() * invz + F.cam.cy;
-    if (!F.cam.bounds.contains(u, v)) continue;
+    float invz, u, v;
+    if (!project(F.cam, Tcw * mp->pos, invz, u, v)) continue;
     const float d3 = static_cast<float>((mp->pos - Ow).norm());
     if (d3 < 0.8f * mp->min_dist || d3 > 1.2f * mp->max_dist) continue;
     const int level = mp->predictScale(d3, sc.log_scale_factor, sc.n_levels);
