@@ -328,9 +328,7 @@ SensorFrame RawlogDataset::read(size_t i) { return readRaw(i, nullptr, nullptr);
 SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) {
   auto& I = *impl_;
   if (!I.sel) throw DataError("RawlogDataset: read() before configure()");
-  if (i >= I.sel->frames.size())
-    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(I.sel->frames.size()) +
-                    " frames)");
+  ds::requireFrameIndex(i, I.sel->frames.size());
   if (depth_raw) depth_raw->release();
   const FrameRef& ref = I.sel->frames[i];
   CObservation::Ptr o = I.observation(ref);
