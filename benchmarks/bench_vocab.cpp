@@ -181,13 +181,22 @@ void BM_TransformBowOnly1000_1M(benchmark::State& st) {
 }
 BENCHMARK(BM_TransformBowOnly1000_1M)->Unit(benchmark::kMillisecond);
 
-void BM_Transform1000_Default(benchmark::State& st) {
+/** The shipped default vocabulary (loaded once), or nullptr after marking
+ *  the benchmark skipped when it is missing. */
+const Vocabulary* defaultVocabulary(benchmark::State& st) {
   const std::string p = defaultVocabularyPath();
   if (!fs::exists(p)) {
     st.SkipWithError(("default vocabulary missing: " + p).c_str());
-    return;
+    return nullptr;
   }
-  const Vocabulary voc = Vocabulary::load(p);
+  static const Vocabulary voc = Vocabulary::load(p);
+  return &voc;
+}
+
+void BM_Transform1000_Default(benchmark::State& st) {
+  const Vocabulary* vp = defaultVocabulary(st);
+  if (!vp) return;
+  const Vocabulary& voc = *vp;
   const cv::Mat& d = realDescriptors();
   BowVector b;
   FeatureVector fv;
@@ -356,13 +365,7 @@ void BM_LoopCandidates_500kfReal_1M(benchmark::State& st) { realQuery(st, bigVoc
 BENCHMARK(BM_LoopCandidates_500kfReal_1M)->Unit(benchmark::kMicrosecond);
 
 void BM_LoopCandidates_500kfReal_Default(benchmark::State& st) {
-  const std::string p = defaultVocabularyPath();
-  if (!fs::exists(p)) {
-    st.SkipWithError(("default vocabulary missing: " + p).c_str());
-    return;
-  }
-  static const Vocabulary voc = Vocabulary::load(p);
-  realQuery(st, voc);
+  if (const Vocabulary* voc = defaultVocabulary(st)) realQuery(st, *voc);
 }
 BENCHMARK(BM_LoopCandidates_500kfReal_Default)->Unit(benchmark::kMicrosecond);
 
