@@ -2,11 +2,17 @@
 // for the accuracy targets of docs/slam.md).
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
 #include "dslam/config/pipeline.h"
 #include "dslam/core/dataset.h"
 #include "dslam/core/registry.h"
 #include "dslam/eval/eval.h"
 #include "dslam/slam/system.h"
+#include "dslam/trajectory/io.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
@@ -131,6 +137,30 @@ TEST(SlamE2E, RunCommandWritesOutputsAndReportsAte) {
   EXPECT_NE(traj.find("tracked frames only: 60 of 60"), std::string::npos) << traj.substr(0, 300);
   const std::string csv = test::readFile(out + "/timing.csv");
   EXPECT_NE(csv.find("frame,orb_ms"), std::string::npos);
+  // summary.json: the run as counted by the runner.
+  const auto sum = nlohmann::json::parse(test::readFile(out + "/summary.json"));
+  EXPECT_EQ(sum.at("pipeline"), "orbslam_baseline");
+  EXPECT_EQ(sum.at("finished"), true);
+  EXPECT_EQ(sum.at("stopped_by"), "");
+  EXPECT_EQ(sum.at("frames"), 60);
+  EXPECT_EQ(sum.at("tracked"), 60);
+  EXPECT_EQ(sum.at("maps"), 1);
+  EXPECT_GE(sum.at("keyframes").get<int>(), 2);
+  EXPECT_GE(sum.at("map_points").get<int>(), 500);  // >= 100 points with depth per keyframe, several keyframes
+  EXPECT_EQ(sum.at("ate_pairs"), 60);
+  EXPECT_GT(sum.at("ate_rmse").get<double>(), 0.0);
+  EXPECT_LT(sum.at("ate_rmse").get<double>(), 0.01);
+  EXPECT_GT(sum.at("median_ms").get<double>(), 0.0);
+  EXPECT_EQ(traj::read(out + "/trajectory.txt").size(), sum.at("tracked").get<size_t>());
+  // events.jsonl: one JSON object per line; a clean static run initialises
+  // one map at frame 0 and has nothing else to report (no loss, no loop).
+  std::ifstream ev(out + "/events.jsonl");
+  std::vector<nlohmann::json> events;
+  for (std::string l; std::getline(ev, l);) events.push_back(nlohmann::json::parse(l));
+  ASSERT_EQ(events.size(), 1u) << test::readFile(out + "/events.jsonl");
+  EXPECT_EQ(events[0].at("event"), "map_initialised");
+  EXPECT_EQ(events[0].at("frame"), 0);
+  EXPECT_EQ(events[0].at("map"), 0);
   // The resolved config re-validates.
   EXPECT_EQ(test::runDslam(test::cat("config check ", out, "/config.resolved.yaml")).exit_code, 0);
 }
