@@ -16,6 +16,21 @@ inline int dist(const Descriptor& a, const cv::Mat& d, size_t row) {
   return descriptorDistance(a.data(), d.ptr<uint8_t>(static_cast<int>(row)));
 }
 
+/** The two smallest descriptor distances offered and the index of the
+ *  smallest (ORB-SLAM's bestDist / bestDist2 for the NN-ratio test). */
+struct BestTwo {
+  int d1 = 256, d2 = 256, idx = -1;
+  void offer(int d, int i) {
+    if (d < d1) {
+      d2 = d1;
+      d1 = d;
+      idx = i;
+    } else if (d < d2) {
+      d2 = d;
+    }
+  }
+};
+
 /** Pixel (u, v) and 1/z of camera point Xc (ORB-SLAM's SearchByProjection
  *  arithmetic); false when it is behind the camera or outside the image. */
 bool project(const CameraIntrinsics& cam, const Eigen::Vector3d& Xc, float& invz, float& u, float& v) {
@@ -185,20 +200,14 @@ int Matcher::matchKeyFrameToFrame(KeyFrame* kf, TrackedFrame& F, ForEachPair&& f
     const MapPointPtr& mp = kf->points[i];
     if (!mp || mp->bad || !mp->active) return;
     const uint8_t* dk = kf->descriptors.ptr<uint8_t>(static_cast<int>(i));
-    int b1 = 256, b2 = 256, bi = -1;
+    BestTwo best;
     for (const auto jj : candidates) {
       const size_t j = static_cast<size_t>(jj);
       if (!F.usable(j)) continue;
-      const int d = descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (d < b1) {
-        b2 = b1;
-        b1 = d;
-        bi = static_cast<int>(j);
-      } else if (d < b2) {
-        b2 = d;
-      }
+      best.offer(descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j))), static_cast<int>(j));
     }
-    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) return;
+    const int b1 = best.d1, bi = best.idx;
+    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * best.d2) return;
     if (b1 < best_for_f[bi]) {  // one-to-one: keep the closest keyframe point per frame keypoint
       best_for_f[bi] = b1;
       kf_for_f[bi] = static_cast<int>(i);
@@ -244,20 +253,14 @@ int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>&
     const MapPointPtr& mp1 = kf1->points[i];
     if (!mp1 || mp1->bad || !kf1->usable(i)) return;
     const uint8_t* d1 = kf1->descriptors.ptr<uint8_t>(static_cast<int>(i));
-    int b1 = 256, b2 = 256, bi = -1;
+    BestTwo best;
     for (uint32_t j : cands) {
       const MapPointPtr& mp2 = kf2->points[j];
       if (used2[j] || !mp2 || mp2->bad || !mp2->active || !kf2->usable(j)) continue;
-      const int d = descriptorDistance(d1, kf2->descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (d < b1) {
-        b2 = b1;
-        b1 = d;
-        bi = static_cast<int>(j);
-      } else if (d < b2) {
-        b2 = d;
-      }
+      best.offer(descriptorDistance(d1, kf2->descriptors.ptr<uint8_t>(static_cast<int>(j))), static_cast<int>(j));
     }
-    if (bi < 0 || b1 >= p_.th_low || b1 >= p_.nn_ratio * b2) return;
+    const int b1 = best.d1, bi = best.idx;
+    if (bi < 0 || b1 >= p_.th_low || b1 >= p_.nn_ratio * best.d2) return;
     matches12[i] = kf2->points[bi];
     used2[bi] = 1;
     ids.push_back(static_cast<int>(i));
