@@ -156,18 +156,22 @@ void BM_LoadBinary_1M(benchmark::State& st) {
 }
 BENCHMARK(BM_LoadBinary_1M)->Unit(benchmark::kMillisecond)->Iterations(3);
 
-void BM_Transform1000_1M(benchmark::State& st) {
-  const Vocabulary& voc = bigVocabulary();
+/** BoW vector and direct index of the 1000 real descriptors, `levelsup`
+ *  levels above the words. */
+void transformLoop(benchmark::State& st, const Vocabulary& voc, int levelsup) {
   const cv::Mat& d = realDescriptors();
   BowVector b;
   FeatureVector fv;
   for (auto _ : st) {
-    voc.transform(d, b, fv, 4);
+    voc.transform(d, b, fv, levelsup);
     benchmark::DoNotOptimize(b);
   }
   st.counters["descriptors"] = d.rows;
   st.counters["words"] = static_cast<double>(b.size());
+  st.counters["vocabulary_words"] = static_cast<double>(voc.size());
 }
+
+void BM_Transform1000_1M(benchmark::State& st) { transformLoop(st, bigVocabulary(), 4); }
 BENCHMARK(BM_Transform1000_1M)->Unit(benchmark::kMillisecond);
 
 void BM_TransformBowOnly1000_1M(benchmark::State& st) {
@@ -194,17 +198,7 @@ const Vocabulary* defaultVocabulary(benchmark::State& st) {
 }
 
 void BM_Transform1000_Default(benchmark::State& st) {
-  const Vocabulary* vp = defaultVocabulary(st);
-  if (!vp) return;
-  const Vocabulary& voc = *vp;
-  const cv::Mat& d = realDescriptors();
-  BowVector b;
-  FeatureVector fv;
-  for (auto _ : st) {
-    voc.transform(d, b, fv, 2);
-    benchmark::DoNotOptimize(b);
-  }
-  st.counters["words"] = static_cast<double>(voc.size());
+  if (const Vocabulary* voc = defaultVocabulary(st)) transformLoop(st, *voc, 2);
 }
 BENCHMARK(BM_Transform1000_Default)->Unit(benchmark::kMillisecond);
 
