@@ -25,18 +25,31 @@ int share(const test::SynthWorld& w, Map& m, KeyFrame* a, const std::vector<int>
   return made;
 }
 
+/** Three keyframes of one map, 10 cm apart along x (the first is the origin). */
+struct ThreeKeyFrames {
+  test::SynthWorld w;
+  Map m{0};
+  std::vector<int> seen[3];
+  KeyFramePtr kf[3];
+  ThreeKeyFrames() {
+    for (int i = 0; i < 3; i++) {
+      kf[i] = w.keyframe(m, test::poseAt({0.1 * i, 0, 0}), i, &seen[i]);
+      m.addKeyFrame(kf[i]);
+    }
+  }
+  /** n points of world points first.. that keyframes a and b both see. */
+  int share(int a, int b, int first, int n) {
+    return ::share(w, m, kf[a].get(), seen[a], kf[b].get(), seen[b], first, n);
+  }
+};
+
 }  // namespace
 
 TEST(Covisibility, UpdateConnectionsKeepsEdgesOfAtLeast15SharedPoints) {
-  test::SynthWorld w;
-  Map m(0);
-  std::vector<int> sa, sb, sc;
-  auto A = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &sa);
-  auto B = w.keyframe(m, test::poseAt({0.1, 0, 0}), 1, &sb);
-  auto C = w.keyframe(m, test::poseAt({0.2, 0, 0}), 2, &sc);
-  for (auto& k : {A, B, C}) m.addKeyFrame(k);
-  ASSERT_EQ(share(w, m, A.get(), sa, B.get(), sb, 0, 40), 40);
-  ASSERT_EQ(share(w, m, A.get(), sa, C.get(), sc, 200, 10), 10);
+  ThreeKeyFrames t;
+  auto &A = t.kf[0], &B = t.kf[1], &C = t.kf[2];
+  ASSERT_EQ(t.share(0, 1, 0, 40), 40);
+  ASSERT_EQ(t.share(0, 2, 200, 10), 10);
 
   A->updateConnections();
   EXPECT_EQ(A->weight(B.get()), 40);
@@ -48,7 +61,7 @@ TEST(Covisibility, UpdateConnectionsKeepsEdgesOfAtLeast15SharedPoints) {
   EXPECT_EQ(A->parent, nullptr);  // the origin has no parent
 
   // 30 more points shared with C: C now passes the threshold and orders after B.
-  ASSERT_EQ(share(w, m, A.get(), sa, C.get(), sc, 100, 30), 30);
+  ASSERT_EQ(t.share(0, 2, 100, 30), 30);
   A->updateConnections();
   EXPECT_EQ(A->weight(C.get()), 40);
   ASSERT_EQ(A->covisibles().size(), 2u);
@@ -58,15 +71,10 @@ TEST(Covisibility, UpdateConnectionsKeepsEdgesOfAtLeast15SharedPoints) {
 }
 
 TEST(Covisibility, WeakNeighboursKeepTheBestOneAndItBecomesTheParent) {
-  test::SynthWorld w;
-  Map m(0);
-  std::vector<int> so, sa, sb;
-  auto O = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &so);
-  auto A = w.keyframe(m, test::poseAt({0.1, 0, 0}), 1, &sa);
-  auto B = w.keyframe(m, test::poseAt({0.2, 0, 0}), 2, &sb);
-  for (auto& k : {O, A, B}) m.addKeyFrame(k);
-  ASSERT_EQ(share(w, m, O.get(), so, B.get(), sb, 0, 12), 12);
-  ASSERT_EQ(share(w, m, A.get(), sa, B.get(), sb, 100, 8), 8);
+  ThreeKeyFrames t;
+  auto &O = t.kf[0], &A = t.kf[1], &B = t.kf[2];
+  ASSERT_EQ(t.share(0, 2, 0, 12), 12);
+  ASSERT_EQ(t.share(1, 2, 100, 8), 8);
 
   B->updateConnections();  // 12 and 8 shared points: both below 15
   EXPECT_EQ(B->weight(O.get()), 12);  // ORB-SLAM keeps the strongest anyway
@@ -77,17 +85,13 @@ TEST(Covisibility, WeakNeighboursKeepTheBestOneAndItBecomesTheParent) {
 }
 
 TEST(Covisibility, ErasedKeyFrameHandsItsChildrenToACovisibleCandidate) {
-  test::SynthWorld w;
-  Map m(0);
-  std::vector<int> so, sb, sc;
-  auto O = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &so);
-  auto B = w.keyframe(m, test::poseAt({0.1, 0, 0}), 1, &sb);
-  auto C = w.keyframe(m, test::poseAt({0.2, 0, 0}), 2, &sc);
-  for (auto& k : {O, B, C}) m.addKeyFrame(k);
-  share(w, m, O.get(), so, B.get(), sb, 0, 40);
+  ThreeKeyFrames t;
+  auto &O = t.kf[0], &B = t.kf[1], &C = t.kf[2];
+  Map& m = t.m;
+  t.share(0, 1, 0, 40);
   B->updateConnections();  // B joins the tree under O
-  share(w, m, B.get(), sb, C.get(), sc, 60, 50);
-  share(w, m, O.get(), so, C.get(), sc, 150, 20);
+  t.share(1, 2, 60, 50);
+  t.share(0, 2, 150, 20);
   C->updateConnections();
   ASSERT_EQ(B->parent, O.get());
   ASSERT_EQ(C->parent, B.get());  // 50 shared with B, 20 with O

@@ -5,6 +5,7 @@
 
 #include <exception>
 #include <string>
+#include <vector>
 
 #include "dslam/core/error.h"
 
@@ -43,6 +44,8 @@ std::string cat(const T&... parts) {
   return s;
 }
 void writeFile(const std::string& path, const std::string& content);
+/** A KITTI times.txt: one stamp per line with `decimals` decimals. */
+void writeKittiTimes(const std::string& path, const std::vector<double>& stamps, int decimals = 6);
 
 /** Message of the DataError thrown by f; fails the test if f throws nothing
  *  or another exception. */

@@ -49,12 +49,21 @@ int countWrong(const test::SynthWorld& w, const TrackedFrame& F, const std::vect
 
 }  // namespace
 
-TEST(Matcher, MotionModelProjectionFindsEveryPointOfTheLastFrame) {
+/** Motion-model search: the last tracked frame at the origin with a loose
+ *  map point on each keypoint (sl[k] = world point of keypoint k). */
+class MatcherMotionModel : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (size_t k = 0; k < sl.size(); k++) last.points[k] = loosePoint(w, m, sl[k]);
+  }
   test::SynthWorld w;
-  Map m(0);
-  std::vector<int> sl, sc;
+  Map m{0};
+  std::vector<int> sl;
   TrackedFrame last = w.tracked(test::poseAt({0, 0, 0}), 0, &sl);
-  for (size_t k = 0; k < sl.size(); k++) last.points[k] = loosePoint(w, m, sl[k]);
+};
+
+TEST_F(MatcherMotionModel, FindsEveryPointOfTheLastFrame) {
+  std::vector<int> sc;
   TrackedFrame cur = w.tracked(test::poseAt({0.02, 0.01, 0.03}, 1), 1, &sc);
   const int both = common(sl, sc);
   ASSERT_GT(both, 200);
@@ -71,12 +80,7 @@ TEST(Matcher, MotionModelProjectionFindsEveryPointOfTheLastFrame) {
   EXPECT_LT(matcher.searchByProjection(off, last, 7, true), both / 20);
 }
 
-TEST(Matcher, MotionModelProjectionDropsMatchesOfAnotherRotation) {
-  test::SynthWorld w;
-  Map m(0);
-  std::vector<int> sl, sc;
-  TrackedFrame last = w.tracked(test::poseAt({0, 0, 0}), 0, &sl);
-  for (size_t k = 0; k < sl.size(); k++) last.points[k] = loosePoint(w, m, sl[k]);
+TEST_F(MatcherMotionModel, DropsMatchesOfAnotherRotation) {
   // Current keypoints are turned by 40 degrees (the whole image), except 15
   // that claim 200 degrees: fewer than 10 % of the main bin, so the rotation
   // histogram rejects them (ORB-SLAM keeps the three main bins).
