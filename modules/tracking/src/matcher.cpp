@@ -16,21 +16,6 @@ inline int dist(const Descriptor& a, const cv::Mat& d, size_t row) {
   return descriptorDistance(a.data(), d.ptr<uint8_t>(static_cast<int>(row)));
 }
 
-/** The two smallest descriptor distances offered and the index of the
- *  smallest (ORB-SLAM's bestDist / bestDist2 for the NN-ratio test). */
-struct BestTwo {
-  int d1 = 256, d2 = 256, idx = -1;
-  void offer(int d, int i) {
-    if (d < d1) {
-      d2 = d1;
-      d1 = d;
-      idx = i;
-    } else if (d < d2) {
-      d2 = d;
-    }
-  }
-};
-
 /** Pixel (u, v) and 1/z of camera point Xc (ORB-SLAM's SearchByProjection
  *  arithmetic); false when it is behind the camera or outside the image. */
 bool project(const CameraIntrinsics& cam, const Eigen::Vector3d& Xc, float& invz, float& u, float& v) {
