@@ -12,31 +12,13 @@
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
 #include "dslam/core/registry.h"
+#include "plugin_util.h"
 #include "test_support.h"
 
 namespace dslam::test {
 
 inline std::string yq(const std::string& s) { return "\"" + s + "\""; }
 
-/** Creates and configures reader `type` from YAML parameter text. */
-inline std::shared_ptr<DatasetSource> openDataset(const std::string& type, const std::string& yaml) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>(type);
-  if (!ds) throw std::runtime_error("no plugin " + type);
-  ds->configure(Params::resolve(ds->paramSpecs(), yaml), PluginContext{});
-  return ds;
-}
-
-/** Message of the DataError thrown by f ("" if none). */
-template <class F>
-std::string dataErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const DataError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 template <class F>
 std::string anyErrorOf(F&& f) {

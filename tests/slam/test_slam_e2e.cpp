@@ -13,25 +13,13 @@
 #include "dslam/eval/eval.h"
 #include "dslam/slam/system.h"
 #include "dslam/trajectory/io.h"
+#include "plugin_util.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
 using namespace dslam;
 
 namespace {
-
-std::shared_ptr<DatasetSource> openDataset(const std::string& type, const std::string& params_yaml) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>(type);
-  ds->configure(Params::resolve(ds->paramSpecs(), params_yaml), PluginContext{});
-  return ds;
-}
-
-std::shared_ptr<Backend> ceres() {
-  auto b = create<Backend>("dslam::CeresBackend");
-  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
-  return b;
-}
 
 struct RunResult {
   Trajectory traj;
@@ -42,7 +30,7 @@ struct RunResult {
 /** Runs the System over a dataset; `mutate` may alter frames (bad-input tests). */
 RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
                     const std::function<void(SensorFrame&)>& mutate = nullptr) {
-  System sys(*ds.camera(), sp, ceres());
+  System sys(*ds.camera(), sp, test::ceresBackend());
   RunResult r;
   for (size_t i = 0; i < ds.size(); i++) {
     SensorFrame f = ds.read(i);
@@ -61,7 +49,7 @@ RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
 
 TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   const RunResult r = runSystem(*ds, SlamParams{});
   std::cout << "static_office RGB-D: " << r.tracked << "/" << r.frames << " tracked, ATE " << r.ate << " m\n";
   EXPECT_EQ(r.tracked, r.frames);
@@ -72,7 +60,7 @@ TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
 TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
   // The synthetic folder doubles as a KITTI-style stereo sequence (rgb/ + right/ + calib.txt + poses.txt).
-  auto ds = openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
+  auto ds = test::openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
   ASSERT_EQ(ds->sensor(), SensorType::Stereo);
   ASSERT_EQ(ds->groundTruth().size(), ds->size());
   const RunResult r = runSystem(*ds, SlamParams{});
@@ -84,7 +72,7 @@ TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
 
 TEST(SlamE2E, SequentialModeIsDeterministic) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   SlamParams sp;
   const RunResult a = runSystem(*ds, sp);
   const RunResult b = runSystem(*ds, sp);
@@ -97,10 +85,10 @@ TEST(SlamE2E, SequentialModeIsDeterministic) {
 
 TEST(SlamE2E, BadFramesAreLostNotFatal) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   // Frames 60-64: all-zero depth; 65-69: black image; 70-74: no depth at all.
   std::vector<int> state(ds->size(), -1);
-  System sys(*ds->camera(), SlamParams{}, ceres());
+  System sys(*ds->camera(), SlamParams{}, test::ceresBackend());
   for (size_t i = 0; i < ds->size(); i++) {
     SensorFrame f = ds->read(i);
     if (i >= 60 && i < 65) f.depth.setTo(0);

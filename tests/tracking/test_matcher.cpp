@@ -142,12 +142,19 @@ TEST(Matcher, LocalMapProjectionSkipsDynamicKeypointsAndFarDescriptors) {
   EXPECT_EQ(F.points[41], nullptr);
 }
 
-TEST(Matcher, KeyFrameToFrameByDescriptorsIsOneToOneAndCorrect) {
+/** A keyframe at the origin with a map point on every keypoint (sk[k] =
+ *  world point of keypoint k). */
+class MatcherMappedKeyFrame : public ::testing::Test {
+ protected:
+  void SetUp() override { populate(w, m, kf.get(), sk); }
   test::SynthWorld w;
-  Map m(0);
-  std::vector<int> sk, sf;
-  auto kf = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &sk);
-  populate(w, m, kf.get(), sk);
+  Map m{0};
+  std::vector<int> sk;
+  KeyFramePtr kf = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &sk);
+};
+
+TEST_F(MatcherMappedKeyFrame, ToFrameByDescriptorsIsOneToOneAndCorrect) {
+  std::vector<int> sf;
   TrackedFrame F = w.tracked(test::poseAt({0.3, 0.05, 0.1}, 8), 9, &sf);
   const int both = common(sk, sf);
   ASSERT_GT(both, 150);
@@ -172,12 +179,8 @@ TEST(Matcher, KeyFrameToFrameByDescriptorsIsOneToOneAndCorrect) {
   EXPECT_EQ(n3, both - (test::keypointOf(sk, sf[other]) >= 0 ? 2 : 1));
 }
 
-TEST(Matcher, RelocalisationProjectionAddsTheKeyFramesPointsNotFoundYet) {
-  test::SynthWorld w;
-  Map m(0);
-  std::vector<int> sk, sf;
-  auto kf = w.keyframe(m, test::poseAt({0, 0, 0}), 0, &sk);
-  populate(w, m, kf.get(), sk);
+TEST_F(MatcherMappedKeyFrame, RelocalisationProjectionAddsThePointsNotFoundYet) {
+  std::vector<int> sf;
   // Five keyframe points whose descriptor differs from their keypoints' by
   // 60 bits: matched with orb_dist 64, not with 50.
   for (size_t k = 100; k < 105; k++) {
