@@ -17,6 +17,16 @@
 
 namespace dslam::test {
 
+/** Writes `content` to `file`, then `open()` must throw a DataError whose
+ *  message holds every text of `want` (bad-input tests of the readers). */
+template <class Open>
+void expectOpenError(const std::string& file, const std::string& content, Open&& open,
+                     std::initializer_list<const char*> want) {
+  writeFile(file, content);
+  const std::string e = dataError(open);
+  for (const char* w : want) EXPECT_NE(e.find(w), std::string::npos) << file << ": " << e;
+}
+
 inline std::string yq(const std::string& s) { return "\"" + s + "\""; }
 
 

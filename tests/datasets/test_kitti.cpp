@@ -145,20 +145,13 @@ TEST(KittiDataset, BadInputs) {
   }
   {
     TinyKitti k;
-    writeFile(k.dir + "/calib.txt", "P0: 500 0 15 0 0 501 10 0 0 0 1\n");
-    e = dataError([&] { k.open(); });
-    EXPECT_NE(e.find("calib.txt:1"), std::string::npos) << e;
-    EXPECT_NE(e.find("11 numbers"), std::string::npos) << e;
+    expectOpenError(k.dir + "/calib.txt", "P0: 500 0 15 0 0 501 10 0 0 0 1\n", [&] { k.open(); },
+                    {"calib.txt:1", "11 numbers"});
   }
   {
     TinyKitti k;
-    writeFile(k.dir + "/times.txt", "0\n0.1\n0.05\n0.3\n");
-    e = dataError([&] { k.open(); });
-    EXPECT_NE(e.find("times.txt"), std::string::npos) << e;
-    EXPECT_NE(e.find("must increase"), std::string::npos) << e;
-    writeFile(k.dir + "/times.txt", "0\n0.1\n");
-    e = dataError([&] { k.open(); });
-    EXPECT_NE(e.find("2 times"), std::string::npos) << e;
+    expectOpenError(k.dir + "/times.txt", "0\n0.1\n0.05\n0.3\n", [&] { k.open(); }, {"times.txt", "must increase"});
+    expectOpenError(k.dir + "/times.txt", "0\n0.1\n", [&] { k.open(); }, {"2 times"});
   }
   {
     TinyKitti k;

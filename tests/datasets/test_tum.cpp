@@ -217,30 +217,23 @@ TEST(TumDataset, BadInputs) {
   // A first field that is not a number is garbage (associate.py fails on it too).
   {
     TinyTum t;
-    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nabc rgb/1.100000.png\n");
-    e = dataError([&] { t.open(); });
-    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
-    EXPECT_NE(e.find("timestamp path"), std::string::npos) << e;
-    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nnan rgb/1.100000.png\n");
-    e = dataError([&] { t.open(); });
-    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
+    expectOpenError(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nabc rgb/1.100000.png\n", [&] { t.open(); },
+                    {"rgb.txt:2", "timestamp path"});
+    expectOpenError(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nnan rgb/1.100000.png\n", [&] { t.open(); },
+                    {"rgb.txt:2"});
   }
   // Association line with three fields / backwards association.
   {
     TinyTum t;
-    writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png 1.005\n");
-    e = dataError([&] { t.open(); });
-    EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
-    writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png x.y depth/1.005000.png\n");
-    e = dataError([&] { t.open(); });
-    EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
+    expectOpenError(t.dir + "/associations.txt", "1.0 rgb/1.000000.png 1.005\n", [&] { t.open(); },
+                    {"associations.txt:1"});
+    expectOpenError(t.dir + "/associations.txt", "1.0 rgb/1.000000.png x.y depth/1.005000.png\n", [&] { t.open(); },
+                    {"associations.txt:1"});
   }
   // No frame at all.
   {
     TinyTum t;
-    writeFile(t.dir + "/rgb.txt", "# nothing\n");
-    e = dataError([&] { t.open(); });
-    EXPECT_NE(e.find("no frames"), std::string::npos) << e;
+    expectOpenError(t.dir + "/rgb.txt", "# nothing\n", [&] { t.open(); }, {"no frames"});
   }
 }
 
