@@ -15,6 +15,7 @@
 #include "dslam/plugins/datasets/rawlog.h"
 #include "dslam/plugins/datasets/tum.h"
 #include "ds_test_util.h"
+#include "mrpt_camera.h"
 
 namespace fs = std::filesystem;
 using namespace dslam;
@@ -31,14 +32,6 @@ void writeRawlog(const std::string& file, const std::vector<mrpt::serialization:
   mrpt::io::CFileGZOutputStream out(file);
   auto ar = mrpt::serialization::archiveFrom(out);
   for (const auto& o : objs) ar << *o;
-}
-
-mrpt::img::TCamera tcam(double f, int w, int h) {
-  mrpt::img::TCamera c;
-  c.ncols = w;
-  c.nrows = h;
-  c.setIntrinsicParamsFromValues(f, f, (w - 1) / 2.0, (h - 1) / 2.0);
-  return c;
 }
 
 CObservationImage::Ptr monoObs(const std::string& label, double t, int value) {
