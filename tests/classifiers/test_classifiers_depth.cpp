@@ -212,6 +212,14 @@ struct Scene {
     for (size_t i = 0; i < pts.size(); i++)
       f.depth[i] = depth.at<float>(static_cast<int>(pts[i].y), static_cast<int>(pts[i].x));
   }
+
+  /** Frame k (make()) and a classifier context with the scene's camera. */
+  ClassifierContext frame(int k, Frame& f, Detections& d, std::vector<int> visible = {}) const {
+    make(k, f, d, std::move(visible));
+    ClassifierContext ctx;
+    ctx.camera = &cam;
+    return ctx;
+  }
 };
 
 }  // namespace
@@ -224,9 +232,7 @@ TEST(EkfObjectTracker, FlagsMovingObjectNotStaticOne) {
   for (int k = 0; k < 45; k++) {
     Frame f;
     Detections d;
-    s.make(k, f, d);
-    ClassifierContext ctx;
-    ctx.camera = &s.cam;
+    ClassifierContext ctx = s.frame(k, f, d);
     if (k > 0) ctx.previous_T_wc = s.pose(k - 1);
     ekf->classify(f, d, ctx);
     chair.push_back(f.meta[1]);
@@ -292,10 +298,7 @@ TEST(EkfObjectTracker, SlowChairBelowItsThresholdIsStaticAboveIsMoving) {
     for (int k = 0; k < 90; k++) {
       Frame f;
       Detections d;
-      s.make(k, f, d);
-      ClassifierContext ctx;
-      ctx.camera = &s.cam;
-      ekf->classify(f, d, ctx);
+      ekf->classify(f, d, s.frame(k, f, d));
       ekf->afterTracking(f, d, s.pose(k));
     }
     ASSERT_EQ(ekf->tracks().size(), 1u);
@@ -314,10 +317,7 @@ TEST(EkfObjectTracker, LostTrackIsDroppedAndComesBackAsNew) {
     Frame f;
     Detections d;
     const bool vis = k < 10 || k >= 14;  // unseen for 4 frames
-    s.make(k, f, d, {vis ? 1 : 0});
-    ClassifierContext ctx;
-    ctx.camera = &s.cam;
-    ekf->classify(f, d, ctx);
+    ekf->classify(f, d, s.frame(k, f, d, {vis ? 1 : 0}));
     if (vis) last = f.meta[1];
     if (k == 9) {
       EXPECT_EQ(f.meta[1].label, KpLabel::Movable);

@@ -56,6 +56,22 @@ struct TwoView {
     return -1;
   }
 
+  /** Adds n points anywhere in both images. */
+  void fill(int n) {
+    for (int i = 0; i < n; i++) add(cv::Rect(0, 0, 640, 480));
+  }
+
+  /** Moves points 0, step, 2 step... by `px` across their epipolar lines;
+   *  returns their indices. */
+  std::set<size_t> displaceEvery(int step, double px) {
+    std::set<size_t> moved;
+    for (int i = 0; i < static_cast<int>(p1.size()); i += step) {
+      displace(i, px);
+      moved.insert(static_cast<size_t>(i));
+    }
+    return moved;
+  }
+
   /** Moves frame-1 point i by `px` pixels across its epipolar line. */
   void displace(int i, double px) {
     const Eigen::Vector3d l = F * Eigen::Vector3d(p0[i].x, p0[i].y, 1);
@@ -89,12 +105,8 @@ std::set<size_t> dynamicSet(const Frame& f) {
 
 TEST(EpipolarConsistency, DescriptorMatchesFlagPointsOffTheirEpipolarLines) {
   TwoView tv;
-  std::set<size_t> moved;
-  for (int i = 0; i < 300; i++) tv.add(cv::Rect(0, 0, 640, 480));
-  for (int i = 0; i < 300; i += 30) {
-    tv.displace(i, 6.0);
-    moved.insert(static_cast<size_t>(i));
-  }
+  tv.fill(300);
+  const std::set<size_t> moved = tv.displaceEvery(30, 6.0);
   for (int i = 0; i < 300; i++) ASSERT_NEAR(tv.trueDistance(i), moved.count(i) ? 6.0 : 0.0, 1e-3) << i;
   Frame f0, f1;
   tv.frames(f0, f1);
@@ -142,12 +154,8 @@ TEST(EpipolarConsistency, DescriptorMatchesFlagPointsOffTheirEpipolarLines) {
 
 TEST(EpipolarConsistency, UsacAndSubsampledFitGiveTheSameDecisions) {
   TwoView tv;
-  for (int i = 0; i < 300; i++) tv.add(cv::Rect(0, 0, 640, 480));
-  std::set<size_t> moved;
-  for (int i = 0; i < 300; i += 25) {
-    tv.displace(i, 3.0);
-    moved.insert(static_cast<size_t>(i));
-  }
+  tv.fill(300);
+  const std::set<size_t> moved = tv.displaceEvery(25, 3.0);
   for (const char* yaml : {"ransac_method: usac", "max_fit_points: 60", "ransac_method: usac\nmax_fit_points: 60",
                            "ransac_max_iterations: 50"}) {
     for (int run = 0; run < 2; run++) {
@@ -173,12 +181,8 @@ TEST(EpipolarConsistency, UsacAndSubsampledFitGiveTheSameDecisions) {
 
 TEST(EpipolarConsistency, ApplyToBoxesAndExcludedRegions) {
   TwoView tv;
-  for (int i = 0; i < 300; i++) tv.add(cv::Rect(0, 0, 640, 480));
-  std::set<size_t> moved;
-  for (int i = 0; i < 300; i += 15) {
-    tv.displace(i, 5.0);
-    moved.insert(static_cast<size_t>(i));
-  }
+  tv.fill(300);
+  const std::set<size_t> moved = tv.displaceEvery(15, 5.0);
   Detections d;
   d.boxes = {box(0, 0, 320, 480, 62)};  // chairs: tested
   ClassifierContext ctx;
@@ -290,13 +294,13 @@ TEST(EpipolarConsistency, OpticalFlowFlagsMovingObject) {
 
 TEST(EpipolarConsistency, DeterministicLabelsAndFundamentalMatrix) {
   TwoView tv;
-  for (int i = 0; i < 400; i++) tv.add(cv::Rect(0, 0, 640, 480));
+  tv.fill(400);
   cv::RNG noise(5);
   for (auto& p : tv.p1) {  // pixel noise: RANSAC has real choices to make
     p.x += static_cast<float>(noise.gaussian(0.3));
     p.y += static_cast<float>(noise.gaussian(0.3));
   }
-  for (int i = 0; i < 400; i += 9) tv.displace(i, 3.0);
+  tv.displaceEvery(9, 3.0);
   std::vector<std::vector<KeypointMeta>> metas;
   std::vector<cv::Matx33d> Fs;
   for (int run = 0; run < 3; run++) {

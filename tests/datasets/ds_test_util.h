@@ -12,31 +12,23 @@
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
 #include "dslam/core/registry.h"
+#include "plugin_util.h"
 #include "test_support.h"
 
 namespace dslam::test {
 
+/** Writes `content` to `file`, then `open()` must throw a DataError whose
+ *  message holds every text of `want` (bad-input tests of the readers). */
+template <class Open>
+void expectOpenError(const std::string& file, const std::string& content, Open&& open,
+                     std::initializer_list<const char*> want) {
+  writeFile(file, content);
+  const std::string e = dataError(open);
+  for (const char* w : want) EXPECT_NE(e.find(w), std::string::npos) << file << ": " << e;
+}
+
 inline std::string yq(const std::string& s) { return "\"" + s + "\""; }
 
-/** Creates and configures reader `type` from YAML parameter text. */
-inline std::shared_ptr<DatasetSource> openDataset(const std::string& type, const std::string& yaml) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>(type);
-  if (!ds) throw std::runtime_error("no plugin " + type);
-  ds->configure(Params::resolve(ds->paramSpecs(), yaml), PluginContext{});
-  return ds;
-}
-
-/** Message of the DataError thrown by f ("" if none). */
-template <class F>
-std::string dataErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const DataError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 template <class F>
 std::string anyErrorOf(F&& f) {

@@ -8,6 +8,18 @@ using namespace dslam::test;
 
 namespace {
 bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+
+/** Every line of `want` appears in the command's output. */
+void expectAll(const CmdResult& r, std::initializer_list<const char*> want) {
+  for (const char* w : want) EXPECT_TRUE(has(r.out, w)) << w << "\n" << r.out;
+}
+
+/** Runs `dslam args`: the exit code is `code` and every text of `want` is in the output. */
+void expectRun(const std::string& args, int code, std::initializer_list<const char*> want) {
+  const auto r = runDslam(args);
+  EXPECT_EQ(r.exit_code, code) << args << "\n" << r.out;
+  expectAll(r, want);
+}
 }  // namespace
 
 TEST(DatasetsCli, PluginsListsEveryReader) {
@@ -23,15 +35,10 @@ TEST(DatasetsCli, InfoKitti) {
   if (dir.empty()) GTEST_SKIP();
   const auto r = runDslam("dataset info " + dir + " --check");
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "type:         dslam::KittiDataset")) << r.out;
-  EXPECT_TRUE(has(r.out, "frames:       51")) << r.out;
-  EXPECT_TRUE(has(r.out, "last stamp:   5.000000")) << r.out;
-  EXPECT_TRUE(has(r.out, "rate:         10.00 Hz")) << r.out;
-  EXPECT_TRUE(has(r.out, "image:        1241x376 8-bit grey")) << r.out;
-  EXPECT_TRUE(has(r.out, "fx=718.856 fy=718.856 cx=607.1928 cy=185.2157")) << r.out;
-  EXPECT_TRUE(has(r.out, "bf=386.1448")) << r.out;
-  EXPECT_TRUE(has(r.out, "ground truth: 51 poses")) << r.out;
-  EXPECT_TRUE(has(r.out, "51 of 51 frames read")) << r.out;
+  expectAll(
+      r, {"type:         dslam::KittiDataset", "frames:       51", "last stamp:   5.000000", "rate:         10.00 Hz",
+          "image:        1241x376 8-bit grey", "fx=718.856 fy=718.856 cx=607.1928 cy=185.2157", "bf=386.1448",
+          "ground truth: 51 poses", "51 of 51 frames read"});
 }
 
 TEST(DatasetsCli, InfoEurocAndRawlog) {
@@ -40,20 +47,13 @@ TEST(DatasetsCli, InfoEurocAndRawlog) {
   if (eu.empty() || rl.empty()) GTEST_SKIP();
   auto r = runDslam("dataset info " + eu);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "dslam::EurocDataset")) << r.out;
-  EXPECT_TRUE(has(r.out, "frames:       40")) << r.out;
-  EXPECT_TRUE(has(r.out, "rate:         20.00 Hz")) << r.out;
-  EXPECT_TRUE(has(r.out, "unrectified")) << r.out;
-  EXPECT_TRUE(has(r.out, "ground truth: 41 poses")) << r.out;
-  EXPECT_TRUE(has(r.out, "body frame")) << r.out;
+  expectAll(r, {"dslam::EurocDataset", "frames:       40", "rate:         20.00 Hz", "unrectified",
+                "ground truth: 41 poses", "body frame"});
 
   r = runDslam("dataset info " + rl);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "dslam::RawlogDataset")) << r.out;
-  EXPECT_TRUE(has(r.out, "frames:       1")) << r.out;
-  EXPECT_TRUE(has(r.out, "label 'OPENNI2': mrpt::obs::CObservation3DRangeScan x1")) << r.out;
-  EXPECT_TRUE(has(r.out, "image:        640x480 8-bit colour")) << r.out;
-  EXPECT_TRUE(has(r.out, "depth factor: 1000")) << r.out;
+  expectAll(r, {"dslam::RawlogDataset", "frames:       1", "label 'OPENNI2': mrpt::obs::CObservation3DRangeScan x1",
+                "image:        640x480 8-bit colour", "depth factor: 1000"});
 
   r = runDslam("dataset info " + rl + " -p register_depth=false");
   ASSERT_EQ(r.exit_code, 0) << r.out;
@@ -76,27 +76,18 @@ TEST(DatasetsCli, InfoErrors) {
   writeFile(t.dir + "/rgb/1.033000.png", "garbage");
   r = runDslam("dataset info " + t.dir + " --check");
   EXPECT_EQ(r.exit_code, 1) << r.out;
-  EXPECT_TRUE(has(r.out, "frame 1: cannot read image")) << r.out;
-  EXPECT_TRUE(has(r.out, "3 of 4 frames read (1 bad)")) << r.out;
+  expectAll(r, {"frame 1: cannot read image", "3 of 4 frames read (1 bad)"});
 }
 
 TEST(DatasetsCli, ConvertRoundTrip) {
   TinyTum t;
   const std::string dir = tempDir("cli_convert");
-  auto r = runDslam("convert tum2rawlog " + t.dir + " " + dir + "/a.rawlog --preset tum_fr1 --label KINECT");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "4 CObservation3DRangeScan, sensor 'KINECT', depth factor 5000")) << r.out;
-  r = runDslam("convert rawlog2tum " + dir + "/a.rawlog " + dir + "/tum");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "4 frames, depth factor 5000 (raw depth copied bit-exactly)")) << r.out;
-  r = runDslam("dataset info " + dir + "/tum");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_TRUE(has(r.out, "frames:       4")) << r.out;
-  EXPECT_TRUE(has(r.out, "fx=517.306408")) << r.out;  // tum_fr1 intrinsics carried through camera.yaml
-  r = runDslam("convert rawlog2tum " + dir + "/a.rawlog " + dir + "/tum");
-  EXPECT_EQ(r.exit_code, 1) << r.out;
-  EXPECT_TRUE(has(r.out, "--overwrite")) << r.out;
-  r = runDslam("convert tum2rawlog /nonexistent/x " + dir + "/b.rawlog");
-  EXPECT_EQ(r.exit_code, 1) << r.out;
-  EXPECT_TRUE(has(r.out, "/nonexistent/x")) << r.out;
+  expectRun("convert tum2rawlog " + t.dir + " " + dir + "/a.rawlog --preset tum_fr1 --label KINECT", 0,
+            {"4 CObservation3DRangeScan, sensor 'KINECT', depth factor 5000"});
+  expectRun("convert rawlog2tum " + dir + "/a.rawlog " + dir + "/tum", 0,
+            {"4 frames, depth factor 5000 (raw depth copied bit-exactly)"});
+  // tum_fr1 intrinsics carried through camera.yaml
+  expectRun("dataset info " + dir + "/tum", 0, {"frames:       4", "fx=517.306408"});
+  expectRun("convert rawlog2tum " + dir + "/a.rawlog " + dir + "/tum", 1, {"--overwrite"});
+  expectRun("convert tum2rawlog /nonexistent/x " + dir + "/b.rawlog", 1, {"/nonexistent/x"});
 }

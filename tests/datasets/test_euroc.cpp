@@ -170,51 +170,44 @@ TEST(EurocDataset, SensorYamlParser) {
 }
 
 TEST(EurocDataset, BadInputs) {
-  std::string e = dataErrorOf([] { openDataset("dslam::EurocDataset", "path: /nonexistent/euroc\n"); });
+  std::string e = dataError([] { openDataset("dslam::EurocDataset", "path: /nonexistent/euroc\n"); });
   EXPECT_NE(e.find("/nonexistent/euroc"), std::string::npos) << e;
   EXPECT_NE(e.find("sensor.yaml"), std::string::npos) << e;
   {
     TinyEuroc t;
     fs::remove_all(t.dir + "/mav0");
-    e = dataErrorOf([&] { t.open(); });
+    e = dataError([&] { t.open(); });
     EXPECT_NE(e.find(t.dir + "/mav0"), std::string::npos) << e;
   }
   {
     TinyEuroc t;
     fs::remove(t.dir + "/mav0/cam1/sensor.yaml");
-    e = dataErrorOf([&] { t.open(); });
+    e = dataError([&] { t.open(); });
     EXPECT_NE(e.find("cam1/sensor.yaml"), std::string::npos) << e;
     EXPECT_EQ(t.open("stereo: false\n")->size(), 5u);
   }
   {
     TinyEuroc t;
-    writeFile(t.dir + "/mav0/cam0/sensor.yaml", sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1", "equidistant"));
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("equidistant"), std::string::npos) << e;
-    writeFile(t.dir + "/mav0/cam0/sensor.yaml", sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1"));
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("T_BS"), std::string::npos) << e;
-    EXPECT_NE(e.find("16 values"), std::string::npos) << e;
+    expectOpenError(t.dir + "/mav0/cam0/sensor.yaml", sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1", "equidistant"),
+                    [&] { t.open(); }, {"equidistant"});
+    expectOpenError(t.dir + "/mav0/cam0/sensor.yaml", sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1"), [&] { t.open(); },
+                    {"T_BS", "16 values"});
   }
   {
     TinyEuroc t;
-    writeFile(t.dir + "/mav0/cam0/data.csv", "#t,f\nabc,a.png\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("cam0/data.csv:2"), std::string::npos) << e;
-    writeFile(t.dir + "/mav0/cam0/data.csv", "#t,f\n1000050000000\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("cam0/data.csv:2"), std::string::npos) << e;
+    expectOpenError(t.dir + "/mav0/cam0/data.csv", "#t,f\nabc,a.png\n", [&] { t.open(); }, {"cam0/data.csv:2"});
+    expectOpenError(t.dir + "/mav0/cam0/data.csv", "#t,f\n1000050000000\n", [&] { t.open(); }, {"cam0/data.csv:2"});
   }
   {
     TinyEuroc t;
     auto ds = t.open();
     const std::string p = t.dir + "/mav0/cam1/data/1000100000000.png";
     writeFile(p, "garbage");
-    e = dataErrorOf([&] { ds->read(2); });
+    e = dataError([&] { ds->read(2); });
     EXPECT_NE(e.find("frame 2"), std::string::npos) << e;
     EXPECT_NE(e.find(p), std::string::npos) << e;
     writeImage(t.dir + "/mav0/cam0/data/1000000000000.png", cv::Mat(10, 16, CV_8UC1, cv::Scalar(0)));
-    e = dataErrorOf([&] { ds->read(0); });
+    e = dataError([&] { ds->read(0); });
     EXPECT_NE(e.find("16x10"), std::string::npos) << e;
     EXPECT_NE(e.find("16x12"), std::string::npos) << e;
   }

@@ -134,41 +134,34 @@ TEST(KittiDataset, PosesGiveGroundTruth) {
 }
 
 TEST(KittiDataset, BadInputs) {
-  std::string e = dataErrorOf([] { openDataset("dslam::KittiDataset", "path: /nonexistent/kitti\n"); });
+  std::string e = dataError([] { openDataset("dslam::KittiDataset", "path: /nonexistent/kitti\n"); });
   EXPECT_NE(e.find("/nonexistent/kitti"), std::string::npos) << e;
   EXPECT_NE(e.find("calib.txt"), std::string::npos) << e;  // layout described
   {
     TinyKitti k;
     fs::remove(k.dir + "/calib.txt");
-    e = dataErrorOf([&] { k.open(); });
+    e = dataError([&] { k.open(); });
     EXPECT_NE(e.find(k.dir + "/calib.txt"), std::string::npos) << e;
   }
   {
     TinyKitti k;
-    writeFile(k.dir + "/calib.txt", "P0: 500 0 15 0 0 501 10 0 0 0 1\n");
-    e = dataErrorOf([&] { k.open(); });
-    EXPECT_NE(e.find("calib.txt:1"), std::string::npos) << e;
-    EXPECT_NE(e.find("11 numbers"), std::string::npos) << e;
+    expectOpenError(k.dir + "/calib.txt", "P0: 500 0 15 0 0 501 10 0 0 0 1\n", [&] { k.open(); },
+                    {"calib.txt:1", "11 numbers"});
   }
   {
     TinyKitti k;
-    writeFile(k.dir + "/times.txt", "0\n0.1\n0.05\n0.3\n");
-    e = dataErrorOf([&] { k.open(); });
-    EXPECT_NE(e.find("times.txt"), std::string::npos) << e;
-    EXPECT_NE(e.find("must increase"), std::string::npos) << e;
-    writeFile(k.dir + "/times.txt", "0\n0.1\n");
-    e = dataErrorOf([&] { k.open(); });
-    EXPECT_NE(e.find("2 times"), std::string::npos) << e;
+    expectOpenError(k.dir + "/times.txt", "0\n0.1\n0.05\n0.3\n", [&] { k.open(); }, {"times.txt", "must increase"});
+    expectOpenError(k.dir + "/times.txt", "0\n0.1\n", [&] { k.open(); }, {"2 times"});
   }
   {
     TinyKitti k;
     auto ds = k.open();
     fs::remove(k.dir + "/image_1/000002.png");
-    e = dataErrorOf([&] { ds->read(2); });
+    e = dataError([&] { ds->read(2); });
     EXPECT_NE(e.find("frame 2"), std::string::npos) << e;
     EXPECT_NE(e.find("image_1/000002.png"), std::string::npos) << e;
     writeFile(k.dir + "/image_0/000001.png", std::string(100, '\x42'));
-    e = dataErrorOf([&] { ds->read(1); });
+    e = dataError([&] { ds->read(1); });
     EXPECT_NE(e.find("frame 1"), std::string::npos) << e;
     EXPECT_NE(e.find("image_0/000001.png"), std::string::npos) << e;
     EXPECT_NE(e.find("corrupt"), std::string::npos) << e;
@@ -176,7 +169,7 @@ TEST(KittiDataset, BadInputs) {
   {
     TinyKitti k;
     fs::remove_all(k.dir + "/image_1");
-    e = dataErrorOf([&] { k.open(); });
+    e = dataError([&] { k.open(); });
     EXPECT_NE(e.find("image_1"), std::string::npos) << e;
     EXPECT_EQ(k.open("stereo: false\n")->size(), 4u);
   }

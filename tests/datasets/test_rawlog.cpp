@@ -15,6 +15,7 @@
 #include "dslam/plugins/datasets/rawlog.h"
 #include "dslam/plugins/datasets/tum.h"
 #include "ds_test_util.h"
+#include "mrpt_camera.h"
 
 namespace fs = std::filesystem;
 using namespace dslam;
@@ -31,14 +32,6 @@ void writeRawlog(const std::string& file, const std::vector<mrpt::serialization:
   mrpt::io::CFileGZOutputStream out(file);
   auto ar = mrpt::serialization::archiveFrom(out);
   for (const auto& o : objs) ar << *o;
-}
-
-mrpt::img::TCamera tcam(double f, int w, int h) {
-  mrpt::img::TCamera c;
-  c.ncols = w;
-  c.nrows = h;
-  c.setIntrinsicParamsFromValues(f, f, (w - 1) / 2.0, (h - 1) / 2.0);
-  return c;
 }
 
 CObservationImage::Ptr monoObs(const std::string& label, double t, int value) {
@@ -267,7 +260,7 @@ TEST(RawlogDataset, ExternalImagesAndBadInputs) {
   ASSERT_EQ(ds->size(), 3u);
   EXPECT_EQ(ds->read(2).image.at<uint8_t>(3, 3), 72);
   fs::remove(dir + "/seq_Images/img_1.png");
-  std::string e = dataErrorOf([&] { ds->read(1); });
+  std::string e = dataError([&] { ds->read(1); });
   EXPECT_NE(e.find("frame 1"), std::string::npos) << e;
   EXPECT_NE(e.find(dir + "/seq_Images/img_1.png"), std::string::npos) << e;
   EXPECT_NE(e.find("missing"), std::string::npos) << e;
@@ -277,18 +270,18 @@ TEST(RawlogDataset, ExternalImagesAndBadInputs) {
 
   // Timestamps going backwards.
   writeRawlog(dir + "/back.rawlog", {monoObs("CAM", 2.0, 1), monoObs("CAM", 3.0, 1), monoObs("CAM", 2.5, 1)});
-  e = dataErrorOf([&] { openRawlog(dir + "/back.rawlog"); });
+  e = dataError([&] { openRawlog(dir + "/back.rawlog"); });
   EXPECT_NE(e.find("back.rawlog"), std::string::npos) << e;
   EXPECT_NE(e.find("must increase"), std::string::npos) << e;
   EXPECT_NE(e.find("frame 2"), std::string::npos) << e;
 
   // Missing file, folder instead of file, garbage, truncated file, no camera observations.
-  e = dataErrorOf([&] { openRawlog(dir + "/none.rawlog"); });
+  e = dataError([&] { openRawlog(dir + "/none.rawlog"); });
   EXPECT_NE(e.find(dir + "/none.rawlog"), std::string::npos) << e;
-  e = dataErrorOf([&] { openRawlog(dir); });
+  e = dataError([&] { openRawlog(dir); });
   EXPECT_NE(e.find("folder"), std::string::npos) << e;
   writeFile(dir + "/garbage.rawlog", std::string(300, 'x'));
-  e = dataErrorOf([&] { openRawlog(dir + "/garbage.rawlog"); });
+  e = dataError([&] { openRawlog(dir + "/garbage.rawlog"); });
   EXPECT_NE(e.find("garbage.rawlog"), std::string::npos) << e;
   {
     writeRawlog(dir + "/full.rawlog", {monoObs("CAM", 1.0, 1), monoObs("CAM", 2.0, 1)});
@@ -296,12 +289,12 @@ TEST(RawlogDataset, ExternalImagesAndBadInputs) {
     std::string bytes(1 << 16, '\0');
     bytes.resize(in.Read(bytes.data(), bytes.size()));
     std::ofstream(dir + "/cut.rawlog", std::ios::binary).write(bytes.data(), bytes.size() - 100);
-    e = dataErrorOf([&] { openRawlog(dir + "/cut.rawlog"); });
+    e = dataError([&] { openRawlog(dir + "/cut.rawlog"); });
     EXPECT_NE(e.find("cut.rawlog"), std::string::npos) << e;
     EXPECT_NE(e.find("object 1"), std::string::npos) << e;
   }
   writeRawlog(dir + "/acts.rawlog", {CActionCollection::Create(), CSensoryFrame::Create()});
-  e = dataErrorOf([&] { openRawlog(dir + "/acts.rawlog"); });
+  e = dataError([&] { openRawlog(dir + "/acts.rawlog"); });
   EXPECT_NE(e.find("no camera observations"), std::string::npos) << e;
 }
 
@@ -405,7 +398,7 @@ TEST(RawlogConvert, CameraFileAndMissingDepth) {
   o.preset = "nope";
   EXPECT_THROW(convertTumToRawlog(t.dir, dir + "/y.rawlog", o), ConfigError);
   fs::remove(t.dir + "/depth.txt");
-  const std::string e = dataErrorOf([&] { convertTumToRawlog(t.dir, dir + "/z.rawlog"); });
+  const std::string e = dataError([&] { convertTumToRawlog(t.dir, dir + "/z.rawlog"); });
   EXPECT_NE(e.find("no depth"), std::string::npos) << e;
 }
 

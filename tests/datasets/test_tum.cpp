@@ -174,7 +174,7 @@ TEST(TumDataset, RealAssociationListDrivesTheReader) {
   EXPECT_DOUBLE_EQ(ds->timestamp(437), 1548266484.531770);
   EXPECT_DOUBLE_EQ(ds->camera()->left.fx, 542.822841);
   // The images are not in shared/: reading names the frame and the file.
-  const std::string e = dataErrorOf([&] { ds->read(0); });
+  const std::string e = dataError([&] { ds->read(0); });
   EXPECT_NE(e.find("frame 0"), std::string::npos) << e;
   EXPECT_NE(e.find(dir + "/rgb/1548266469.88633.png"), std::string::npos) << e;
   EXPECT_NE(e.find("missing"), std::string::npos) << e;
@@ -182,13 +182,13 @@ TEST(TumDataset, RealAssociationListDrivesTheReader) {
 
 TEST(TumDataset, BadInputs) {
   // Missing folder.
-  std::string e = dataErrorOf([] { openDataset("dslam::TumDataset", "path: /nonexistent/tum_folder\n"); });
+  std::string e = dataError([] { openDataset("dslam::TumDataset", "path: /nonexistent/tum_folder\n"); });
   EXPECT_NE(e.find("/nonexistent/tum_folder"), std::string::npos) << e;
   EXPECT_NE(e.find("rgb.txt"), std::string::npos) << e;  // describes the layout
 
   // Missing rgb.txt.
   const std::string empty = tempDir("tum_empty");
-  e = dataErrorOf([&] { openDataset("dslam::TumDataset", "path: " + yq(empty) + "\n"); });
+  e = dataError([&] { openDataset("dslam::TumDataset", "path: " + yq(empty) + "\n"); });
   EXPECT_NE(e.find(empty + "/rgb.txt"), std::string::npos) << e;
 
   // Corrupt PNG (garbage bytes) -> DataError naming the frame and the path.
@@ -197,50 +197,43 @@ TEST(TumDataset, BadInputs) {
     auto ds = t.open();
     const std::string p = t.dir + "/rgb/1.100000.png";
     writeFile(p, "this is not a PNG file at all");
-    e = dataErrorOf([&] { ds->read(2); });
+    e = dataError([&] { ds->read(2); });
     EXPECT_NE(e.find("frame 2"), std::string::npos) << e;
     EXPECT_NE(e.find(p), std::string::npos) << e;
     EXPECT_NE(e.find("corrupt"), std::string::npos) << e;
     EXPECT_NO_THROW(ds->read(1));
     // Missing depth image.
     fs::remove(t.dir + "/depth/1.150000.png");
-    e = dataErrorOf([&] { ds->read(3); });
+    e = dataError([&] { ds->read(3); });
     EXPECT_NE(e.find("frame 3"), std::string::npos) << e;
     EXPECT_NE(e.find("depth/1.150000.png"), std::string::npos) << e;
     EXPECT_NE(e.find("missing"), std::string::npos) << e;
     // 8-bit depth image.
     writeImage(t.dir + "/depth/1.005000.png", cv::Mat(6, 8, CV_8UC1, cv::Scalar(3)));
-    e = dataErrorOf([&] { ds->read(0); });
+    e = dataError([&] { ds->read(0); });
     EXPECT_NE(e.find("16-bit"), std::string::npos) << e;
     EXPECT_THROW(ds->read(4), DataError);  // out of range
   }
   // A first field that is not a number is garbage (associate.py fails on it too).
   {
     TinyTum t;
-    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nabc rgb/1.100000.png\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
-    EXPECT_NE(e.find("timestamp path"), std::string::npos) << e;
-    writeFile(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nnan rgb/1.100000.png\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("rgb.txt:2"), std::string::npos) << e;
+    expectOpenError(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nabc rgb/1.100000.png\n", [&] { t.open(); },
+                    {"rgb.txt:2", "timestamp path"});
+    expectOpenError(t.dir + "/rgb.txt", "1.0 rgb/1.000000.png\nnan rgb/1.100000.png\n", [&] { t.open(); },
+                    {"rgb.txt:2"});
   }
   // Association line with three fields / backwards association.
   {
     TinyTum t;
-    writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png 1.005\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
-    writeFile(t.dir + "/associations.txt", "1.0 rgb/1.000000.png x.y depth/1.005000.png\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("associations.txt:1"), std::string::npos) << e;
+    expectOpenError(t.dir + "/associations.txt", "1.0 rgb/1.000000.png 1.005\n", [&] { t.open(); },
+                    {"associations.txt:1"});
+    expectOpenError(t.dir + "/associations.txt", "1.0 rgb/1.000000.png x.y depth/1.005000.png\n", [&] { t.open(); },
+                    {"associations.txt:1"});
   }
   // No frame at all.
   {
     TinyTum t;
-    writeFile(t.dir + "/rgb.txt", "# nothing\n");
-    e = dataErrorOf([&] { t.open(); });
-    EXPECT_NE(e.find("no frames"), std::string::npos) << e;
+    expectOpenError(t.dir + "/rgb.txt", "# nothing\n", [&] { t.open(); }, {"no frames"});
   }
 }
 

@@ -46,6 +46,13 @@ SE3 pose(double yaw, const Eigen::Vector3d& p) {
   return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())), p);
 }
 
+/** n poses at 10 Hz moving along x at `speed` m/s, shifted by `offset`. */
+Trajectory along(int n, double speed, const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
+  Trajectory t;
+  for (int i = 0; i < n; i++) t.push_back(i * 0.1, pose(0, Eigen::Vector3d(i * 0.1 * speed, 0, 0) + offset));
+  return t;
+}
+
 /** A 3-D helix with changing orientation, 30 Hz. */
 Trajectory helix(size_t n) {
   Trajectory t;
@@ -115,13 +122,7 @@ TEST(EvalGolden, SameResultsInKittiAndEurocFormats) {
   traj::WriteOptions k12;
   k12.format = traj::Format::Kitti;
   traj::write(d + "/est_k12.txt", est, k12);
-  std::string times;
-  char buf[64];
-  for (double s : est.stamps) {
-    std::snprintf(buf, sizeof(buf), "%.6f\n", s);
-    times += buf;
-  }
-  dslam::test::writeFile(d + "/times.txt", times);
+  dslam::test::writeKittiTimes(d + "/times.txt", est.stamps);
 
   traj::WriteOptions eu;
   eu.format = traj::Format::Euroc;
@@ -265,11 +266,7 @@ TEST(EvalAssociation, OnlyOverlappingPosesCount) {
 TEST(EvalRpe, SecondsOnConstantScaleDrift) {
   // gt moves 1 m/s along x at 10 Hz, the estimate 1.1 m/s: every pair 0.5 s
   // apart has a translational error of exactly 0.05 m and no rotation error.
-  Trajectory gt, est;
-  for (int i = 0; i < 40; i++) {
-    gt.push_back(i * 0.1, pose(0, {i * 0.1, 0, 0}));
-    est.push_back(i * 0.1, pose(0, {i * 0.11, 0, 0}));
-  }
+  const Trajectory gt = along(40, 1.0), est = along(40, 1.1);
   eval::RpeOptions o;
   o.delta = 0.5;
   o.unit = eval::DeltaUnit::Seconds;
@@ -423,11 +420,7 @@ TEST(EvalRpe, RelativeErrorDefinitionAndSmallAngles) {
 // ------------------------------------------------------------ reports ---
 
 TEST(EvalReport, JsonAndTextCarryTheNumbers) {
-  Trajectory gt, est;
-  for (int i = 0; i < 10; i++) {
-    gt.push_back(i * 0.1, pose(0, {i * 0.1, 0, 0}));
-    est.push_back(i * 0.1, pose(0, {i * 0.1, 0, 0.25}));
-  }
+  const Trajectory gt = along(10, 1.0), est = along(10, 1.0, {0, 0, 0.25});
   eval::AteOptions o;
   o.align = eval::Align::None;
   const auto r = eval::computeAte(gt, est, o);

@@ -91,13 +91,7 @@ TEST(EvalCli, GoldenInOtherFormats) {
   traj::write(d + "/k13.txt", est, k);
   k.kitti_with_times = false;
   traj::write(d + "/k12.txt", est, k);
-  std::string times;
-  char buf[64];
-  for (double s : est.stamps) {
-    std::snprintf(buf, sizeof(buf), "%.6f\n", s);
-    times += buf;
-  }
-  dslam::test::writeFile(d + "/times.txt", times);
+  dslam::test::writeKittiTimes(d + "/times.txt", est.stamps);
   traj::write(d + "/est.csv", est, {traj::Format::Euroc, false, ""});
   // The ground truth as EuRoC too (read with an explicit format).
   traj::write(d + "/gt_euroc.txt", traj::read(goldenGt()), {traj::Format::Euroc, false, ""});

@@ -77,18 +77,33 @@ struct PlaneResult {
   StereoMatchStats stats;
 };
 
+/** ORB features of a stereo pair (default extractors) and their matches. */
+struct MatchedPair {
+  OrbExtractor ex_l, ex_r;
+  std::vector<cv::KeyPoint> kl, kr;
+  cv::Mat dl, dr;
+  std::vector<float> u_right, depth;
+  StereoMatchStats stats;
+
+  MatchedPair(const cv::Mat& left, const cv::Mat& right, const StereoMatchParams& sp = StereoMatchParams()) {
+    ex_l.extract(left, kl, dl);
+    ex_r.extract(right, kr, dr);
+    stats = match(static_cast<float>(kBf), static_cast<float>(kBaseline), sp);
+  }
+  StereoMatchStats match(float bf, float baseline, const StereoMatchParams& sp = StereoMatchParams()) {
+    return computeStereoMatches(ex_l, kl, dl, ex_r, kr, dr, bf, baseline, u_right, depth, sp);
+  }
+};
+
 PlaneResult matchPlane(double d_true, const StereoMatchParams& sp) {
   PlaneResult res;
   cv::Mat left, right;
   renderPlanePair(cv::Size(640, 480), d_true, 100 + static_cast<uint64_t>(d_true * 4), left, right);
-  OrbExtractor ex_l, ex_r;
-  std::vector<cv::KeyPoint> kl, kr;
-  cv::Mat dl, dr;
-  ex_l.extract(left, kl, dl);
-  ex_r.extract(right, kr, dr);
-  std::vector<float> u_right, depth;
-  res.stats = computeStereoMatches(ex_l, kl, dl, ex_r, kr, dr, static_cast<float>(kBf), static_cast<float>(kBaseline),
-                                   u_right, depth, sp);
+  MatchedPair mp(left, right, sp);
+  const auto& kl = mp.kl;
+  const auto& u_right = mp.u_right;
+  const auto& depth = mp.depth;
+  res.stats = mp.stats;
   EXPECT_EQ(u_right.size(), kl.size());
   EXPECT_EQ(depth.size(), kl.size());
   const double z_true = kBf / d_true;
@@ -156,22 +171,14 @@ TEST(StereoMatcher, NoMatchesOutsideTheDisparityRange) {
   // Right = left shifted the wrong way (negative disparity): nothing valid.
   cv::Mat left, right;
   renderPlanePair(cv::Size(640, 480), 10.0, 5, right, left);  // swapped: x_r = x_l + 10
-  OrbExtractor ex_l, ex_r;
-  std::vector<cv::KeyPoint> kl, kr;
-  cv::Mat dl, dr;
-  ex_l.extract(left, kl, dl);
-  ex_r.extract(right, kr, dr);
-  std::vector<float> u_right, depth;
-  const StereoMatchStats st =
-      computeStereoMatches(ex_l, kl, dl, ex_r, kr, dr, static_cast<float>(kBf), static_cast<float>(kBaseline),
-                           u_right, depth);
+  MatchedPair mp(left, right);
   // Only accidental matches may survive (and never with negative disparity).
-  EXPECT_LT(st.matched, 0.05 * kl.size());
-  for (size_t i = 0; i < kl.size(); i++)
-    if (u_right[i] >= 0) {
-      EXPECT_GT(kl[i].pt.x - u_right[i], 0.0f);
+  EXPECT_LT(mp.stats.matched, 0.05 * mp.kl.size());
+  for (size_t i = 0; i < mp.kl.size(); i++)
+    if (mp.u_right[i] >= 0) {
+      EXPECT_GT(mp.kl[i].pt.x - mp.u_right[i], 0.0f);
     }
-  EXPECT_THROW(computeStereoMatches(ex_l, kl, dl, ex_r, kr, dr, 0.f, 0.5f, u_right, depth), ConfigError);
+  EXPECT_THROW(mp.match(0.f, 0.5f), ConfigError);
 }
 
 TEST(StereoMatcher, RealKittiPair) {

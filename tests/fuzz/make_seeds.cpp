@@ -25,6 +25,9 @@
 #include "dslam/map/map_point.h"
 #include "dslam/place_recognition/vocabulary.h"
 #include "dslam/plugins/detectors/label_io.h"
+#include "mrpt_camera.h"
+
+using dslam::test::tcam;
 
 namespace fs = std::filesystem;
 using namespace dslam;
@@ -112,14 +115,6 @@ void atlas(const fs::path& tmp) {
   for (auto& kf : kfs) kf->updateConnections();
   a.save((tmp / "a.atlas").string());
   seed("atlas", "tiny_atlas", -1, tmp / "a.atlas");
-}
-
-mrpt::img::TCamera tcam(double f, int w, int h) {
-  mrpt::img::TCamera c;
-  c.ncols = w;
-  c.nrows = h;
-  c.setIntrinsicParamsFromValues(f, f, (w - 1) / 2.0, (h - 1) / 2.0);
-  return c;
 }
 
 void writeObjs(const fs::path& file, const std::vector<mrpt::serialization::CSerializable::Ptr>& objs) {

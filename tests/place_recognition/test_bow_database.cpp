@@ -10,21 +10,10 @@
 #include "dslam/core/error.h"
 #include "dslam/place_recognition/bow_database.h"
 #include "dslam/place_recognition/vocabulary.h"
+#include "vocab_test_util.h"
 
 using namespace dslam;
 
-namespace {
-
-BowVector randomVector(std::mt19937& rng, int n_words, int universe, BowNorm norm) {
-  std::uniform_int_distribution<int> wd(0, universe - 1);
-  std::uniform_real_distribution<double> vd(0.01, 1.0);
-  BowVector v;
-  for (int i = 0; i < n_words; ++i) v.addWeight(static_cast<WordId>(wd(rng)), vd(rng));
-  v.normalize(norm);
-  return v;
-}
-
-}  // namespace
 
 TEST(BowDatabase, AddEraseAndInvertedFile) {
   BowDatabase db(ScoringType::L1, 10);
@@ -63,12 +52,12 @@ TEST(BowDatabase, QueryScoresEqualDirectScores) {
     BowDatabase db(s);
     std::vector<BowVector> vs;
     for (int i = 0; i < 60; ++i) {
-      vs.push_back(randomVector(rng, 80, 600, normFor(s)));
+      vs.push_back(test::randomVector(rng, 80, 600, normFor(s)));
       db.add(i, vs.back());
     }
     // Erase a few to exercise holes in the slot table.
     for (int i : {3, 17, 40}) db.erase(i);
-    const BowVector q = randomVector(rng, 80, 600, normFor(s));
+    const BowVector q = test::randomVector(rng, 80, 600, normFor(s));
     const auto res = db.query(q);
     ASSERT_FALSE(res.empty());
     size_t sharing = 0;
@@ -95,10 +84,10 @@ TEST(BowDatabase, SharedWordsAndFilter) {
   BowDatabase db;
   std::vector<BowVector> vs;
   for (int i = 0; i < 40; ++i) {
-    vs.push_back(randomVector(rng, 30, 200, BowNorm::L1));
+    vs.push_back(test::randomVector(rng, 30, 200, BowNorm::L1));
     db.add(100 + i, vs.back());
   }
-  const BowVector q = randomVector(rng, 30, 200, BowNorm::L1);
+  const BowVector q = test::randomVector(rng, 30, 200, BowNorm::L1);
   auto keep = [](BowEntryId id) { return id % 2 == 0; };
   const auto sw = db.sharedWords(q, keep);
   std::vector<BowSharedWords> expect;
@@ -159,7 +148,7 @@ TEST(BowDatabase, ConcurrentQueriesWhileAdding) {
   std::mt19937 rng(1);
   BowDatabase db;
   std::vector<BowVector> vs;
-  for (int i = 0; i < 400; ++i) vs.push_back(randomVector(rng, 50, 2000, BowNorm::L1));
+  for (int i = 0; i < 400; ++i) vs.push_back(test::randomVector(rng, 50, 2000, BowNorm::L1));
   for (int i = 0; i < 100; ++i) db.add(i, vs[i]);
   std::atomic<bool> stop{false};
   std::atomic<int> bad{0};

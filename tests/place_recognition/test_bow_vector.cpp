@@ -8,6 +8,7 @@
 
 #include "dslam/core/error.h"
 #include "dslam/place_recognition/bow_vector.h"
+#include "vocab_test_util.h"
 
 using namespace dslam;
 
@@ -19,14 +20,6 @@ BowVector make(std::map<WordId, double> m) {
   return BowVector(std::move(e));
 }
 
-BowVector randomVector(std::mt19937& rng, int n_words, int universe, BowNorm norm) {
-  std::uniform_int_distribution<int> wd(0, universe - 1);
-  std::uniform_real_distribution<double> vd(0.01, 1.0);
-  BowVector v;
-  for (int i = 0; i < n_words; ++i) v.addWeight(static_cast<WordId>(wd(rng)), vd(rng));
-  v.normalize(norm);
-  return v;
-}
 
 double dense(const BowVector& a, const BowVector& b, ScoringType s) {
   std::map<WordId, std::pair<double, double>> u;
@@ -99,8 +92,8 @@ TEST(BowVector, AllScoringsMatchDenseFormulas) {
   for (ScoringType s : {ScoringType::L1, ScoringType::L2, ScoringType::ChiSquare, ScoringType::KL,
                         ScoringType::Bhattacharyya, ScoringType::DotProduct}) {
     for (int t = 0; t < 20; ++t) {
-      const BowVector a = randomVector(rng, 60, 150, normFor(s));
-      const BowVector b = randomVector(rng, 60, 150, normFor(s));
+      const BowVector a = test::randomVector(rng, 60, 150, normFor(s));
+      const BowVector b = test::randomVector(rng, 60, 150, normFor(s));
       EXPECT_NEAR(bowScore(s, a, b), dense(a, b, s), 1e-9) << toString(s);
       if (s != ScoringType::KL && s != ScoringType::DotProduct) {
         // L2: 1 - sqrt(1 - a.a) turns the 1e-16 rounding of a.a into ~1e-8.

@@ -1,6 +1,6 @@
 #pragma once
-// Helpers for the place-recognition tests: clustered random descriptors,
-// ORB descriptors of real images.
+// Helpers for the place-recognition tests: random BoW vectors, clustered
+// random descriptors, ORB descriptors of real images.
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -13,8 +13,19 @@
 
 #include "dslam/features/frontend.h"
 #include "dslam/features/orb_extractor.h"
+#include "dslam/place_recognition/bow_vector.h"
 
 namespace dslam::test {
+
+/** n_words random words of 0..universe-1 with random weights, normalised. */
+inline BowVector randomVector(std::mt19937& rng, int n_words, int universe, BowNorm norm) {
+  std::uniform_int_distribution<int> wd(0, universe - 1);
+  std::uniform_real_distribution<double> vd(0.01, 1.0);
+  BowVector v;
+  for (int i = 0; i < n_words; ++i) v.addWeight(static_cast<WordId>(wd(rng)), vd(rng));
+  v.normalize(norm);
+  return v;
+}
 
 /** `n` random 32-byte prototypes. */
 inline std::vector<std::array<uint8_t, 32>> prototypes(int n, uint32_t seed) {

@@ -12,6 +12,7 @@
 #include "dslam/core/keypoint_classifier.h"
 #include "dslam/core/registry.h"
 #include "dslam/slam/system.h"
+#include "plugin_util.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
@@ -68,17 +69,8 @@ using namespace dslam;
 namespace {
 
 std::shared_ptr<DatasetSource> scene() {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>("dslam::TumDataset");
-  ds->configure(Params::resolve(ds->paramSpecs(), test::cat("path: ", test::syntheticSequence("static_office", 40, 320, 240), "\n")),
-                PluginContext{});
-  return ds;
-}
-
-std::shared_ptr<Backend> ceres() {
-  auto b = create<Backend>("dslam::CeresBackend");
-  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
-  return b;
+  return test::openDataset("dslam::TumDataset",
+                           test::cat("path: ", test::syntheticSequence("static_office", 40, 320, 240), "\n"));
 }
 
 }  // namespace
@@ -90,7 +82,7 @@ TEST(AsyncDetection, TrackingDoesNotWaitForASlowDetector) {
   {
     SlamParams sp;
     sp.place.enabled = false;
-    System sys(*ds->camera(), sp, ceres(), config::Mode::Parallel);
+    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
     sys.addDetector("gated", det, 1, System::DetectionMode::Async);
     sys.addClassifier("probe", probe, "gated");
     for (size_t i = 0; i < 20; i++) sys.track(ds->read(i));  // the detector is stuck on frame 1 meanwhile
@@ -125,7 +117,7 @@ TEST(AsyncDetection, SyncModePairsEachFrameWithItsOwnDetection) {
   {
     SlamParams sp;
     sp.place.enabled = false;
-    System sys(*ds->camera(), sp, ceres(), config::Mode::Parallel);
+    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
     sys.addDetector("gated", det, 1, System::DetectionMode::Sync);
     sys.addClassifier("probe", probe, "gated");
     for (size_t i = 0; i < 10; i++) sys.track(ds->read(i));

@@ -7,6 +7,7 @@
 #include "dslam/core/dataset.h"
 #include "dslam/core/registry.h"
 #include "dslam/slam/system.h"
+#include "plugin_util.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
@@ -19,11 +20,8 @@ struct Seen {
 };
 
 Seen runWithCaps(const std::string& dir, int max_kf, int max_fixed) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>("dslam::TumDataset");
-  ds->configure(Params::resolve(ds->paramSpecs(), test::cat("path: ", dir, "\n")), PluginContext{});
-  auto backend = create<Backend>("dslam::CeresBackend");
-  backend->configure(Params::resolve(backend->paramSpecs(), ""), PluginContext{});
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto backend = test::ceresBackend();
   SlamParams sp;
   sp.mapper.ba_max_keyframes = max_kf;
   sp.mapper.ba_max_fixed_keyframes = max_fixed;

@@ -13,6 +13,7 @@
 #include "dslam/eval/eval.h"
 #include "dslam/map/atlas.h"
 #include "dslam/slam/system.h"
+#include "plugin_util.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
@@ -21,16 +22,7 @@ using namespace dslam;
 namespace {
 
 std::shared_ptr<DatasetSource> tum(const std::string& dir) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>("dslam::TumDataset");
-  ds->configure(Params::resolve(ds->paramSpecs(), test::cat("path: ", dir, "\n")), PluginContext{});
-  return ds;
-}
-
-std::shared_ptr<Backend> ceres() {
-  auto b = create<Backend>("dslam::CeresBackend");
-  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
-  return b;
+  return test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
 }
 
 struct RunOut {
@@ -52,7 +44,7 @@ struct RunOut {
 
 RunOut run(DatasetSource& ds, const SlamParams& sp, const std::function<void(SensorFrame&)>& mutate = nullptr,
         const std::string& save = "", const std::string& load = "") {
-  System sys(*ds.camera(), sp, ceres());
+  System sys(*ds.camera(), sp, test::ceresBackend());
   RunOut r;
   sys.setEventSink([&r](const std::string& e) { r.events.push_back(nlohmann::json::parse(e)); });
   if (!load.empty()) sys.loadMaps(load);
@@ -160,7 +152,7 @@ TEST(LoopClosing, CorruptOrForeignAtlasFilesAreRefused) {
   SlamParams sp;
   sp.loop.enabled = false;
   {
-    System sys(*ds->camera(), sp, ceres());
+    System sys(*ds->camera(), sp, test::ceresBackend());
     for (size_t i = 0; i < 40; i++) sys.track(ds->read(i));
     sys.shutdown();
     sys.mapManager().save(good);

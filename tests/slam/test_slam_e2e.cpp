@@ -2,30 +2,24 @@
 // for the accuracy targets of docs/slam.md).
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
 #include "dslam/config/pipeline.h"
 #include "dslam/core/dataset.h"
 #include "dslam/core/registry.h"
 #include "dslam/eval/eval.h"
 #include "dslam/slam/system.h"
+#include "dslam/trajectory/io.h"
+#include "plugin_util.h"
 #include "synth_cache.h"
 #include "test_support.h"
 
 using namespace dslam;
 
 namespace {
-
-std::shared_ptr<DatasetSource> openDataset(const std::string& type, const std::string& params_yaml) {
-  register_builtin_plugins();
-  auto ds = create<DatasetSource>(type);
-  ds->configure(Params::resolve(ds->paramSpecs(), params_yaml), PluginContext{});
-  return ds;
-}
-
-std::shared_ptr<Backend> ceres() {
-  auto b = create<Backend>("dslam::CeresBackend");
-  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
-  return b;
-}
 
 struct RunResult {
   Trajectory traj;
@@ -36,7 +30,7 @@ struct RunResult {
 /** Runs the System over a dataset; `mutate` may alter frames (bad-input tests). */
 RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
                     const std::function<void(SensorFrame&)>& mutate = nullptr) {
-  System sys(*ds.camera(), sp, ceres());
+  System sys(*ds.camera(), sp, test::ceresBackend());
   RunResult r;
   for (size_t i = 0; i < ds.size(); i++) {
     SensorFrame f = ds.read(i);
@@ -55,7 +49,7 @@ RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
 
 TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   const RunResult r = runSystem(*ds, SlamParams{});
   std::cout << "static_office RGB-D: " << r.tracked << "/" << r.frames << " tracked, ATE " << r.ate << " m\n";
   EXPECT_EQ(r.tracked, r.frames);
@@ -66,7 +60,7 @@ TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
 TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
   // The synthetic folder doubles as a KITTI-style stereo sequence (rgb/ + right/ + calib.txt + poses.txt).
-  auto ds = openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
+  auto ds = test::openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
   ASSERT_EQ(ds->sensor(), SensorType::Stereo);
   ASSERT_EQ(ds->groundTruth().size(), ds->size());
   const RunResult r = runSystem(*ds, SlamParams{});
@@ -78,7 +72,7 @@ TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
 
 TEST(SlamE2E, SequentialModeIsDeterministic) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   SlamParams sp;
   const RunResult a = runSystem(*ds, sp);
   const RunResult b = runSystem(*ds, sp);
@@ -91,10 +85,10 @@ TEST(SlamE2E, SequentialModeIsDeterministic) {
 
 TEST(SlamE2E, BadFramesAreLostNotFatal) {
   const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
-  auto ds = openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
+  auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   // Frames 60-64: all-zero depth; 65-69: black image; 70-74: no depth at all.
   std::vector<int> state(ds->size(), -1);
-  System sys(*ds->camera(), SlamParams{}, ceres());
+  System sys(*ds->camera(), SlamParams{}, test::ceresBackend());
   for (size_t i = 0; i < ds->size(); i++) {
     SensorFrame f = ds->read(i);
     if (i >= 60 && i < 65) f.depth.setTo(0);
@@ -131,6 +125,30 @@ TEST(SlamE2E, RunCommandWritesOutputsAndReportsAte) {
   EXPECT_NE(traj.find("tracked frames only: 60 of 60"), std::string::npos) << traj.substr(0, 300);
   const std::string csv = test::readFile(out + "/timing.csv");
   EXPECT_NE(csv.find("frame,orb_ms"), std::string::npos);
+  // summary.json: the run as counted by the runner.
+  const auto sum = nlohmann::json::parse(test::readFile(out + "/summary.json"));
+  EXPECT_EQ(sum.at("pipeline"), "orbslam_baseline");
+  EXPECT_EQ(sum.at("finished"), true);
+  EXPECT_EQ(sum.at("stopped_by"), "");
+  EXPECT_EQ(sum.at("frames"), 60);
+  EXPECT_EQ(sum.at("tracked"), 60);
+  EXPECT_EQ(sum.at("maps"), 1);
+  EXPECT_GE(sum.at("keyframes").get<int>(), 2);
+  EXPECT_GE(sum.at("map_points").get<int>(), 500);  // >= 100 points with depth per keyframe, several keyframes
+  EXPECT_EQ(sum.at("ate_pairs"), 60);
+  EXPECT_GT(sum.at("ate_rmse").get<double>(), 0.0);
+  EXPECT_LT(sum.at("ate_rmse").get<double>(), 0.01);
+  EXPECT_GT(sum.at("median_ms").get<double>(), 0.0);
+  EXPECT_EQ(traj::read(out + "/trajectory.txt").size(), sum.at("tracked").get<size_t>());
+  // events.jsonl: one JSON object per line; a clean static run initialises
+  // one map at frame 0 and has nothing else to report (no loss, no loop).
+  std::ifstream ev(out + "/events.jsonl");
+  std::vector<nlohmann::json> events;
+  for (std::string l; std::getline(ev, l);) events.push_back(nlohmann::json::parse(l));
+  ASSERT_EQ(events.size(), 1u) << test::readFile(out + "/events.jsonl");
+  EXPECT_EQ(events[0].at("event"), "map_initialised");
+  EXPECT_EQ(events[0].at("frame"), 0);
+  EXPECT_EQ(events[0].at("map"), 0);
   // The resolved config re-validates.
   EXPECT_EQ(test::runDslam(test::cat("config check ", out, "/config.resolved.yaml")).exit_code, 0);
 }

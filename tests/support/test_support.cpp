@@ -92,4 +92,14 @@ void writeFile(const std::string& path, const std::string& content) {
   f << content;
 }
 
+void writeKittiTimes(const std::string& path, const std::vector<double>& stamps, int decimals) {
+  std::string times;
+  char buf[64];
+  for (double t : stamps) {
+    std::snprintf(buf, sizeof(buf), "%.*f\n", decimals, t);
+    times += buf;
+  }
+  writeFile(path, times);
+}
+
 }  // namespace dslam::test

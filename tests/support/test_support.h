@@ -5,19 +5,25 @@
 
 #include <exception>
 #include <string>
+#include <vector>
 
 #include "dslam/core/error.h"
 
 namespace dslam::test {
 
-/** Path inside ../shared (DSLAM_SHARED_DIR). Fails the test (FATAL) if it
- *  does not exist, unless DSLAM_ALLOW_MISSING_SHARED=1 (then skips). */
+/** Path inside the shared data folder (DSLAM_SHARED_DIR, default ../shared).
+ *  When it does not exist: "" and a non-fatal test failure (ADD_FAILURE), or
+ *  with DSLAM_ALLOW_MISSING_SHARED=1 "" and a note on stderr. The caller must
+ *  return on "" (DSLAM_REQUIRE_SHARED does, as a skip). */
 std::string shared(const std::string& rel);
-/** Source tree path (configs, scenarios). */
+/** Source tree path (configs, scenarios): DSLAM_SOURCE_DIR if set, else the
+ *  source folder the tests were built from. */
 std::string source(const std::string& rel);
 /** A fresh empty temporary directory, removed at process exit. */
 std::string tempDir(const std::string& tag);
-/** Path of the dslam executable (DSLAM_EXE, set by ctest). */
+/** Path of the dslam executable: DSLAM_EXE if set in the environment, else
+ *  the dslam built with the tests (its path is compiled into
+ *  dslam_test_support; ctest sets nothing). */
 std::string dslamExe();
 
 struct CmdResult {
@@ -38,6 +44,8 @@ std::string cat(const T&... parts) {
   return s;
 }
 void writeFile(const std::string& path, const std::string& content);
+/** A KITTI times.txt: one stamp per line with `decimals` decimals. */
+void writeKittiTimes(const std::string& path, const std::vector<double>& stamps, int decimals = 6);
 
 /** Message of the DataError thrown by f; fails the test if f throws nothing
  *  or another exception. */
@@ -57,7 +65,9 @@ std::string dataError(F&& f) {
 
 }  // namespace dslam::test
 
-/** Skip-or-fail guard for tests that need ../shared data. */
+/** Guard for tests that need shared data: returns from the test (as a skip)
+ *  when `rel` is missing, after shared() recorded the failure (or only the
+ *  note with DSLAM_ALLOW_MISSING_SHARED=1). */
 #define DSLAM_REQUIRE_SHARED(rel)                          \
   do {                                                     \
     if (::dslam::test::shared(rel).empty()) GTEST_SKIP(); \

@@ -36,6 +36,13 @@ Scenario scenario(const std::string& name, int w, int h, int frames = 0, bool no
   return loadScenario(dslam::test::source("config/scenarios/" + name + ".yaml"), ov);
 }
 
+/** Render options without the right image. */
+RenderOptions leftOnly() {
+  RenderOptions ro;
+  ro.right = false;
+  return ro;
+}
+
 struct PinholeCameraRef {
   double fx, fy, cx, cy;
 };
@@ -51,9 +58,7 @@ double planeDepth(const PinholeCameraRef& K, const SE3& T, int x, int y, const V
 // depth is the analytic ray/plane depth to within one depth unit.
 TEST(SynthRender, ProjectionOfKnownPointsMatchesDepth) {
   const Scenario s = parseScenario(kScene);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   const PinholeCameraRef K{s.intrinsics.fx, s.intrinsics.fy, s.intrinsics.cx, s.intrinsics.cy};
   const int crate = s.objects[0].instance_id;
   const double yaw = 20 * M_PI / 180;
@@ -110,9 +115,7 @@ TEST(SynthRender, ProjectionOfKnownPointsMatchesDepth) {
 // surface of that person's body.
 TEST(SynthRender, PersonPixelsLieOnPersonSurfaces) {
   const Scenario s = scenario("walking_xyz", 320, 240, 0, false);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   const auto& K = s.intrinsics;
   size_t person_px = 0;
   for (int f : {20, 60, 100, 140}) {
@@ -136,9 +139,7 @@ TEST(SynthRender, PersonPixelsLieOnPersonSurfaces) {
 // Panoptic ids, semantic classes, segments and boxes agree with each other.
 TEST(SynthRender, LabelsAreConsistent) {
   const Scenario s = scenario("walking_static", 320, 240, 0, true);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   const FrameRender fr = r.render(45);
   std::map<int, int> area;
   for (int y = 0; y < s.height; y++)
@@ -185,9 +186,7 @@ TEST(SynthRender, LabelsAreConsistent) {
 // 255 and have no box.
 TEST(SynthRender, UnlabelledObjectsAreVoid) {
   const Scenario s = scenario("unknown_object", 160, 120);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   const int balloon = s.findObject("balloon")->instance_id, box = s.findObject("moving_box")->instance_id;
   int seen_balloon = 0, seen_box = 0;
   for (int f = 0; f < s.frames; f += 30) {
@@ -216,9 +215,7 @@ TEST(SynthRender, DepthNoiseFollowsKinectModel) {
   Scenario sn = s;
   sn.noise.enabled = true;
   sn.noise.depth_max = 4.0;
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(sn, ro);
+  Renderer r(sn, leftOnly());
   const FrameRender fr = r.render(3);
   double sum2 = 0, model2 = 0;
   int n = 0, beyond = 0, beyond_zero = 0, near_valid = 0, near_total = 0;
@@ -299,9 +296,7 @@ TEST(SynthRender, ThreadCountDoesNotChangeOutput) {
 // close_person: the person covers more than 60% of the image for a while.
 TEST(SynthRender, ClosePersonCoversMostOfTheImage) {
   const Scenario s = scenario("close_person", 160, 120);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   int frames_over = 0;
   double best = 0;
   for (int f = 180; f <= 280; f += 5) {
@@ -319,9 +314,7 @@ TEST(SynthRender, StaticBackgroundStaysVisible) {
   for (const char* n : {"walking_xyz", "walking_static", "walking_rpy", "walking_halfsphere", "sitting_xyz", "crowd",
                         "unknown_object"}) {
     const Scenario s = scenario(n, 80, 60);
-    RenderOptions ro;
-    ro.right = false;
-    Renderer r(s, ro);
+    Renderer r(s, leftOnly());
     std::set<int> movers;
     for (const auto& p : s.people) movers.insert(p.instance_id);
     for (const auto& o : s.objects)
@@ -341,9 +334,7 @@ TEST(SynthRender, StaticBackgroundStaysVisible) {
 // crowd: at least ten people, many of them visible at once.
 TEST(SynthRender, CrowdShowsManyPeople) {
   const Scenario s = scenario("crowd", 160, 120);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   size_t best = 0;
   for (int f = 0; f < s.frames; f += 60) best = std::max(best, r.render(f).boxes.size());
   EXPECT_GE(best, 8u);
@@ -353,9 +344,7 @@ TEST(SynthRender, CrowdShowsManyPeople) {
 // out of view.
 TEST(SynthRender, VanishingObjectsDisappearOutOfView) {
   const Scenario s = scenario("vanishing", 160, 120);
-  RenderOptions ro;
-  ro.right = false;
-  Renderer r(s, ro);
+  Renderer r(s, leftOnly());
   std::set<int> gone;
   for (const auto& e : s.events) gone.insert(s.findObject(e.object)->instance_id);
   ASSERT_EQ(gone.size(), 3u);
@@ -380,9 +369,7 @@ TEST(SynthRender, VanishingObjectsDisappearOutOfView) {
 TEST(SynthRender, ChangesHappenOutOfView) {
   for (const char* n : {"one_chair", "vanishing", "replacing", "shift"}) {
     const Scenario s = scenario(n, 80, 60);
-    RenderOptions ro;
-    ro.right = false;
-    Renderer r(s, ro);
+    Renderer r(s, leftOnly());
     std::set<int> ids;
     int lo = s.frames, hi = 0;
     for (const auto& e : s.events) {

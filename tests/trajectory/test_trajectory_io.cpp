@@ -12,6 +12,7 @@
 using namespace dslam;
 using dslam::test::tempDir;
 using dslam::test::writeFile;
+using dslam::test::writeKittiTimes;
 
 namespace {
 
@@ -287,13 +288,7 @@ TEST(TrajectoryIo, RoundTripKitti) {
 
   wo.kitti_with_times = false;
   traj::write(d + "/k12.txt", t, wo);
-  std::string times;
-  char buf[64];
-  for (double s : t.stamps) {
-    std::snprintf(buf, sizeof(buf), "%.9f\n", s);
-    times += buf;
-  }
-  writeFile(d + "/times.txt", times);
+  writeKittiTimes(d + "/times.txt", t.stamps, 9);
   traj::ReadOptions ro;
   ro.kitti_times = d + "/times.txt";
   expectSame(traj::read(d + "/k12.txt", ro), t, 1e-9, 1e-10, 1e-10);

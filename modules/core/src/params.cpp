@@ -134,19 +134,16 @@ std::optional<std::string> checkScalar(const ParamSpec& s, ParamType t, const no
     case ParamType::Bool:
       if (!yamlu::parseBool(*txt)) err = "expected bool (true/false), got '" + *txt + "'";
       break;
-    case ParamType::Int: {
-      auto x = yamlu::parseInt(*txt);
-      if (!x)
-        err = "expected an integer, got '" + *txt + "'";
-      else if ((s.min && *x < *s.min) || (s.max && *x > *s.max))
-        err = "value " + *txt + " out of range [" + (s.min ? fmtDouble(*s.min) : "-inf") + ", " +
-              (s.max ? fmtDouble(*s.max) : "inf") + "]";
-      break;
-    }
+    case ParamType::Int:
     case ParamType::Double: {
-      auto x = yamlu::parseDouble(*txt);
+      const bool is_int = t == ParamType::Int;
+      std::optional<double> x;  // the range check compares as double either way
+      if (!is_int)
+        x = yamlu::parseDouble(*txt);
+      else if (const auto i = yamlu::parseInt(*txt))
+        x = static_cast<double>(*i);
       if (!x)
-        err = "expected a number, got '" + *txt + "'";
+        err = std::string(is_int ? "expected an integer" : "expected a number") + ", got '" + *txt + "'";
       else if ((s.min && *x < *s.min) || (s.max && *x > *s.max))
         err = "value " + *txt + " out of range [" + (s.min ? fmtDouble(*s.min) : "-inf") + ", " +
               (s.max ? fmtDouble(*s.max) : "inf") + "]";
@@ -330,29 +327,28 @@ std::string Params::getString(const std::string& key) const {
   if (!t) fail(key, "not a string");
   return *t;
 }
-std::vector<int> Params::getIntList(const std::string& key) const {
-  std::vector<int> out;
-  const node_t& n = DSLAM_NODE(key);
+namespace {
+/** Elements of a sequence node parsed by `parse` (nullopt = not valid:
+ *  `bad()` throws); an empty list for a non-sequence. */
+template <class T, class Parse, class Bad>
+std::vector<T> listOf(const node_t& n, Parse parse, Bad bad) {
+  std::vector<T> out;
   if (!n.isSequence()) return out;
   for (const auto& e : n.asSequence()) {
     auto t = yamlu::scalarText(e);
-    auto x = t ? yamlu::parseInt(*t) : std::nullopt;
-    if (!x) fail(key, "list element is not an integer");
-    out.push_back(static_cast<int>(*x));
+    auto x = t ? parse(*t) : std::nullopt;
+    if (!x) bad();
+    out.push_back(static_cast<T>(*x));
   }
   return out;
 }
+}  // namespace
+
+std::vector<int> Params::getIntList(const std::string& key) const {
+  return listOf<int>(DSLAM_NODE(key), yamlu::parseInt, [&] { fail(key, "list element is not an integer"); });
+}
 std::vector<double> Params::getDoubleList(const std::string& key) const {
-  std::vector<double> out;
-  const node_t& n = DSLAM_NODE(key);
-  if (!n.isSequence()) return out;
-  for (const auto& e : n.asSequence()) {
-    auto t = yamlu::scalarText(e);
-    auto x = t ? yamlu::parseDouble(*t) : std::nullopt;
-    if (!x) fail(key, "list element is not a number");
-    out.push_back(*x);
-  }
-  return out;
+  return listOf<double>(DSLAM_NODE(key), yamlu::parseDouble, [&] { fail(key, "list element is not a number"); });
 }
 std::vector<std::string> Params::getStringList(const std::string& key) const {
   std::vector<std::string> out;

@@ -1,14 +1,11 @@
 #include "dslam/core/yaml_util.h"
 
 #include <algorithm>
-#include <cmath>
-
-#include "dslam/core/error.h"
-
-#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
+
+#include "dslam/core/error.h"
 
 namespace dslam::yamlu {
 
@@ -23,8 +20,11 @@ std::optional<bool> parseBool(const std::string& s) {
   return std::nullopt;
 }
 
-std::optional<long long> parseInt(const std::string& s) {
-  long long v = 0;
+namespace {
+/** The whole text as a T (from_chars; a leading '+' allowed), or nullopt. */
+template <class T>
+std::optional<T> parseWhole(const std::string& s) {
+  T v = 0;
   const char* b = s.data();
   const char* e = s.data() + s.size();
   if (b != e && *b == '+') b++;
@@ -32,17 +32,14 @@ std::optional<long long> parseInt(const std::string& s) {
   if (r.ec != std::errc() || r.ptr != e || b == e) return std::nullopt;
   return v;
 }
+}  // namespace
+
+std::optional<long long> parseInt(const std::string& s) { return parseWhole<long long>(s); }
 
 std::optional<double> parseDouble(const std::string& s) {
   if (s == ".inf" || s == "inf") return HUGE_VAL;
   if (s == "-.inf" || s == "-inf") return -HUGE_VAL;
-  double v = 0;
-  const char* b = s.data();
-  const char* e = s.data() + s.size();
-  if (b != e && *b == '+') b++;
-  auto r = std::from_chars(b, e, v);
-  if (r.ec != std::errc() || r.ptr != e || b == e) return std::nullopt;
-  return v;
+  return parseWhole<double>(s);
 }
 
 std::string describe(const node_t& n) {

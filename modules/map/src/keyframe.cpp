@@ -67,8 +67,7 @@ int KeyFrame::trackedPoints(int min_obs) const {
 bool KeyFrame::unprojectStereo(size_t i, Eigen::Vector3d& Xw) const {
   if (i >= depth.size() || depth[i] <= 0) return false;
   const float z = depth[i];
-  const Eigen::Vector3d Xc((keys_un[i].pt.x - cam.cx) * z * cam.invfx, (keys_un[i].pt.y - cam.cy) * z * cam.invfy, z);
-  Xw = T_wc_ * Xc;
+  Xw = T_wc_ * backProject(cam, keys_un[i].pt, z);
   return true;
 }
 

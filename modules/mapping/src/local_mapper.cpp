@@ -61,12 +61,16 @@ void LocalMapper::stop() { worker_.stop(); }
 
 void LocalMapper::requestPause() {
   if (!worker_.running()) return;
+  std::lock_guard<std::mutex> lk(pause_mtx_);
+  if (pauses_++ > 0) return;  // already held
   pause_req_ = true;
   abort_ba_ = true;
   worker_.pause();
 }
 
 void LocalMapper::resume() {
+  std::lock_guard<std::mutex> lk(pause_mtx_);
+  if (pauses_ == 0 || --pauses_ > 0) return;
   pause_req_ = false;
   worker_.resume();
 }
@@ -213,8 +217,7 @@ void LocalMapper::createNewMapPoints() {
       const auto& kp2 = kf2->keys_un[i2];
       const float ur1 = kf1->u_right[i1], ur2 = kf2->u_right[i2];
       const bool st1 = ur1 >= 0, st2 = ur2 >= 0;
-      const Eigen::Vector3d xn1((kp1.pt.x - c1.cx) * c1.invfx, (kp1.pt.y - c1.cy) * c1.invfy, 1.0);
-      const Eigen::Vector3d xn2((kp2.pt.x - c2.cx) * c2.invfx, (kp2.pt.y - c2.cy) * c2.invfy, 1.0);
+      const Eigen::Vector3d xn1 = backProject(c1, kp1.pt, 1.f), xn2 = backProject(c2, kp2.pt, 1.f);
       const Eigen::Vector3d ray1 = Rw1 * xn1, ray2 = Rw2 * xn2;
       const double cos_rays = ray1.dot(ray2) / (ray1.norm() * ray2.norm());
       double cos_st1 = cos_rays + 1, cos_st2 = cos_rays + 1;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <mutex>
 
+#include "bow_score.h"
 #include "dslam/core/error.h"
 #include "dslam/place_recognition/vocabulary.h"
 
@@ -107,57 +108,37 @@ std::vector<BowEntryId> BowDatabase::entriesWithWord(WordId w) const {
   return out;
 }
 
-void BowDatabase::accumulate(const BowVector& v, bool acc, std::vector<uint32_t>& touched, std::vector<int>& counts,
-                             std::vector<double>& sums) const {
-  counts.assign(slots_.size(), 0);
-  if (acc) sums.assign(slots_.size(), 0.0);
-  touched.clear();
+BowDatabase::Touched BowDatabase::touch(const BowVector& v, bool scores, const Filter& keep) const {
+  Touched t;
+  t.counts.assign(slots_.size(), 0);
+  if (scores) t.sums.assign(slots_.size(), 0.0);
+  std::vector<uint32_t> touched;
   const ScoringType st = scoring_;
   for (const BowEntry& e : v) {
     if (e.word >= inv_.size()) continue;
     const double x = e.weight;
     for (const Posting& p : inv_[e.word]) {
-      if (counts[p.slot]++ == 0) touched.push_back(p.slot);
-      if (!acc) continue;
-      const double y = p.weight;
+      if (t.counts[p.slot]++ == 0) touched.push_back(p.slot);
       // Same per-word terms, in the same (ascending word) order, as bowScore().
-      switch (st) {
-        case ScoringType::L1: sums[p.slot] += std::fabs(x - y) - std::fabs(x) - std::fabs(y); break;
-        case ScoringType::L2:
-        case ScoringType::DotProduct: sums[p.slot] += x * y; break;
-        case ScoringType::ChiSquare: sums[p.slot] += x + y != 0.0 ? x * y / (x + y) : 0.0; break;
-        case ScoringType::Bhattacharyya: sums[p.slot] += std::sqrt(x * y); break;
-        case ScoringType::KL: break;  // needs the whole vectors: finishScore()
-      }
+      if (scores) t.sums[p.slot] += bowscore::wordTerm(st, x, p.weight);
     }
   }
+  t.slots.reserve(touched.size());
+  for (uint32_t slot : touched)
+    if (!keep || keep(slots_[slot].id)) t.slots.push_back(slot);
+  return t;
 }
 
 double BowDatabase::finishScore(double s, const BowVector& v, const Slot& slot) const {
-  switch (scoring_) {
-    case ScoringType::L1: return -s / 2.0;
-    case ScoringType::L2: return s >= 1 ? 1.0 : 1.0 - std::sqrt(1.0 - s);
-    case ScoringType::ChiSquare: return 2.0 * s;
-    case ScoringType::Bhattacharyya:
-    case ScoringType::DotProduct: return s;
-    case ScoringType::KL: return bowScore(ScoringType::KL, v, slot.v);
-  }
-  return 0;
+  return scoring_ == ScoringType::KL ? bowScore(ScoringType::KL, v, slot.v) : bowscore::finish(scoring_, s);
 }
 
 std::vector<BowSharedWords> BowDatabase::sharedWords(const BowVector& v, const Filter& keep) const {
   std::shared_lock lk(mutex_);
-  std::vector<uint32_t> touched;
-  std::vector<int> counts;
-  std::vector<double> sums;
-  accumulate(v, false, touched, counts, sums);
+  const Touched t = touch(v, false, keep);
   std::vector<BowSharedWords> out;
-  out.reserve(touched.size());
-  for (uint32_t s : touched) {
-    const BowEntryId id = slots_[s].id;
-    if (keep && !keep(id)) continue;
-    out.push_back({id, counts[s]});
-  }
+  out.reserve(t.slots.size());
+  for (uint32_t s : t.slots) out.push_back({slots_[s].id, t.counts[s]});
   std::sort(out.begin(), out.end(), [](const BowSharedWords& a, const BowSharedWords& b) { return a.id < b.id; });
   return out;
 }
@@ -185,40 +166,24 @@ void sortMatches(std::vector<BowMatch>& m, size_t max_results) {
 
 std::vector<BowMatch> BowDatabase::query(const BowVector& v, size_t max_results, const Filter& keep) const {
   std::shared_lock lk(mutex_);
-  std::vector<uint32_t> touched;
-  std::vector<int> counts;
-  std::vector<double> sums;
-  accumulate(v, true, touched, counts, sums);
+  const Touched t = touch(v, true, keep);
   std::vector<BowMatch> out;
-  out.reserve(touched.size());
-  for (uint32_t s : touched) {
-    const BowEntryId id = slots_[s].id;
-    if (keep && !keep(id)) continue;
-    out.push_back({id, counts[s], finishScore(sums[s], v, slots_[s])});
-  }
+  out.reserve(t.slots.size());
+  for (uint32_t s : t.slots) out.push_back({slots_[s].id, t.counts[s], finishScore(t.sums[s], v, slots_[s])});
   sortMatches(out, max_results);
   return out;
 }
 
 BowCandidates BowDatabase::candidates(const BowVector& v, const BowCandidateParams& p, const Filter& keep) const {
   std::shared_lock lk(mutex_);
-  std::vector<uint32_t> touched;
-  std::vector<int> counts;
-  std::vector<double> sums;
-  accumulate(v, true, touched, counts, sums);
+  const Touched t = touch(v, true, keep);
   BowCandidates out;
-  std::vector<uint32_t> kept;
-  kept.reserve(touched.size());
-  for (uint32_t s : touched) {
-    if (keep && !keep(slots_[s].id)) continue;
-    kept.push_back(s);
-    out.max_common = std::max(out.max_common, counts[s]);
-  }
+  for (uint32_t s : t.slots) out.max_common = std::max(out.max_common, t.counts[s]);
   out.min_common = static_cast<int>(static_cast<float>(out.max_common) * p.min_common_ratio);
-  for (uint32_t s : kept) {
-    if (counts[s] <= out.min_common) continue;
-    const double sc = finishScore(sums[s], v, slots_[s]);
-    if (sc >= p.min_score) out.matches.push_back({slots_[s].id, counts[s], sc});
+  for (uint32_t s : t.slots) {
+    if (t.counts[s] <= out.min_common) continue;
+    const double sc = finishScore(t.sums[s], v, slots_[s]);
+    if (sc >= p.min_score) out.matches.push_back({slots_[s].id, t.counts[s], sc});
   }
   sortMatches(out.matches, p.max_results);
   return out;

@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "bow_score.h"
 #include "dslam/core/error.h"
 
 namespace dslam {
@@ -107,8 +108,11 @@ size_t FeatureVector::featureCount() const {
   return n;
 }
 
-int commonWords(const BowVector& a, const BowVector& b) {
-  int n = 0;
+namespace {
+
+/** Calls f(a_i, b_i) for every word of both vectors, ascending word order. */
+template <class F>
+void forEachCommon(const BowVector& a, const BowVector& b, F f) {
   auto i = a.begin(), j = b.begin();
   while (i != a.end() && j != b.end()) {
     if (i->word < j->word) {
@@ -116,57 +120,39 @@ int commonWords(const BowVector& a, const BowVector& b) {
     } else if (j->word < i->word) {
       ++j;
     } else {
-      ++n;
+      f(i->weight, j->weight);
       ++i;
       ++j;
     }
   }
-  return n;
 }
-
-namespace {
 
 /** Sum of f(a_i, b_i) over the common words, ascending word order. */
 template <class F>
 double sumCommon(const BowVector& a, const BowVector& b, F f) {
   double s = 0;
-  auto i = a.begin(), j = b.begin();
-  while (i != a.end() && j != b.end()) {
-    if (i->word < j->word) {
-      ++i;
-    } else if (j->word < i->word) {
-      ++j;
-    } else {
-      s += f(i->weight, j->weight);
-      ++i;
-      ++j;
-    }
-  }
+  forEachCommon(a, b, [&](double x, double y) { s += f(x, y); });
   return s;
 }
 
 }  // namespace
 
-double bowScoreL1(const BowVector& a, const BowVector& b) {
-  const double s =
-      sumCommon(a, b, [](double x, double y) { return std::fabs(x - y) - std::fabs(x) - std::fabs(y); });
-  return -s / 2.0;
+int commonWords(const BowVector& a, const BowVector& b) {
+  int n = 0;
+  forEachCommon(a, b, [&](double, double) { ++n; });
+  return n;
 }
+
+double bowScoreL1(const BowVector& a, const BowVector& b) { return bowScore(ScoringType::L1, a, b); }
 
 double bowScore(ScoringType type, const BowVector& a, const BowVector& b) {
   switch (type) {
     case ScoringType::L1:
-      return bowScoreL1(a, b);
-    case ScoringType::L2: {
-      const double s = sumCommon(a, b, [](double x, double y) { return x * y; });
-      return s >= 1 ? 1.0 : 1.0 - std::sqrt(1.0 - s);
-    }
+    case ScoringType::L2:
     case ScoringType::ChiSquare:
-      return 2.0 * sumCommon(a, b, [](double x, double y) { return x + y != 0.0 ? x * y / (x + y) : 0.0; });
     case ScoringType::Bhattacharyya:
-      return sumCommon(a, b, [](double x, double y) { return std::sqrt(x * y); });
     case ScoringType::DotProduct:
-      return sumCommon(a, b, [](double x, double y) { return x * y; });
+      return bowscore::finish(type, sumCommon(a, b, [type](double x, double y) { return bowscore::wordTerm(type, x, y); }));
     case ScoringType::KL: {
       // DBoW2 KLScoring: words of `a` missing from `b` count as b_i = DBL_EPSILON.
       const double log_eps = std::log(DBL_EPSILON);

@@ -2,7 +2,6 @@
 // descriptors (k-means++ seeding, majority-bit centroids) and idf weights.
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -10,7 +9,9 @@
 #include <mutex>
 #include <thread>
 
+#include "dslam/core/descriptor.h"
 #include "dslam/core/error.h"
+#include "dslam/core/splitmix.h"
 #include "dslam/place_recognition/vocabulary.h"
 
 namespace dslam {
@@ -21,16 +22,15 @@ struct D {
   uint64_t w[4];
 };
 
-inline int dist(const D& a, const D& b) {
-  return std::popcount(a.w[0] ^ b.w[0]) + std::popcount(a.w[1] ^ b.w[1]) + std::popcount(a.w[2] ^ b.w[2]) +
-         std::popcount(a.w[3] ^ b.w[3]);
+/** DataError unless the descriptors of image i are ORB rows (CV_8UC1, 32 columns). */
+void requireOrbDescriptors(const cv::Mat& m, size_t i, const char* who) {
+  if (m.type() != CV_8UC1 || m.cols != Vocabulary::kDescriptorBytes)
+    throw DataError(std::string(who) + ": descriptors of image " + std::to_string(i) +
+                    " are not ORB descriptors (CV_8UC1, 32 columns)");
 }
 
-inline uint64_t splitmix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
+inline int dist(const D& a, const D& b) {
+  return descriptorDistance(reinterpret_cast<const uint8_t*>(a.w), reinterpret_cast<const uint8_t*>(b.w));
 }
 
 /** Small deterministic generator (splitmix64 stream): identical output on
@@ -220,9 +220,7 @@ Vocabulary Vocabulary::train(const std::vector<cv::Mat>& images, const Vocabular
   for (size_t i = 0; i < images.size(); ++i) {
     const cv::Mat& m = images[i];
     if (m.empty()) continue;
-    if (m.type() != CV_8UC1 || m.cols != kDescriptorBytes)
-      throw DataError("vocabulary training: descriptors of image " + std::to_string(i) +
-                      " are not ORB descriptors (CV_8UC1, 32 columns)");
+    requireOrbDescriptors(m, i, "vocabulary training");
     total += static_cast<size_t>(m.rows);
   }
   if (total == 0) throw DataError("vocabulary training: no descriptors");
@@ -338,9 +336,7 @@ void Vocabulary::setWordWeights(const std::vector<cv::Mat>& images) {
   for (size_t i = 0; i < images.size(); ++i) {
     const cv::Mat& m = images[i];
     if (m.empty()) continue;
-    if (m.type() != CV_8UC1 || m.cols != kDescriptorBytes)
-      throw DataError("setWordWeights: descriptors of image " + std::to_string(i) +
-                      " are not ORB descriptors (CV_8UC1, 32 columns)");
+    requireOrbDescriptors(m, i, "setWordWeights");
     for (int r = 0; r < m.rows; ++r) {
       const WordId w = transform(m.ptr<uint8_t>(r));
       if (last[w] != i) {

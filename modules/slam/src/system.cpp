@@ -259,13 +259,20 @@ void System::checkPlaceRecognition() {
 
 void System::switchToNewMap(int frame) {
   auto old = maps_->currentMap();
-  // Parallel mode: wait until local mapping is between keyframes (the one it
-  // is processing is finished; queued keyframes keep their map and are
-  // processed later) and loop closing has emptied its queue, so that neither
-  // works on the old map while it is discarded or set aside.
-  if (mode_ == config::Mode::Parallel) {
-    mapper_->requestPause();
-    mapper_->resume();
+  // Parallel mode: local mapping is held between keyframes for the whole
+  // switch (the keyframe it is processing is finished, its local BA cut
+  // short; queued keyframes wait and keep their map) and loop closing first
+  // empties its queue (it may pause and resume local mapping meanwhile: the
+  // pauses nest), so that neither works on the old map while it is discarded
+  // or set aside. A discarded map's queued keyframes are dropped (reset()).
+  struct Hold {
+    LocalMapper* m;
+    ~Hold() {
+      if (m) m->resume();
+    }
+  } hold{mode_ == config::Mode::Parallel ? mapper_.get() : nullptr};
+  if (hold.m) {
+    hold.m->requestPause();
     if (loop_) loop_->waitIdle();
   }
   const size_t n_kf = old->numKeyFrames();

@@ -242,6 +242,16 @@ const std::vector<float>& gaussTable() {
   return t;
 }
 
+/** Runs `work` on `threads` threads (the calling one included) and waits
+ *  for all of them; `work` takes its share of a common job counter. */
+template <class F>
+void onThreads(int threads, F& work) {
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; i++) pool.emplace_back(work);
+  work();
+  for (auto& th : pool) th.join();
+}
+
 }  // namespace
 
 int panopticId(const InstanceInfo& inst) {
@@ -269,10 +279,7 @@ struct Renderer::Impl {
       for (size_t i = next++; i < mats.size(); i = next++)
         textures[i] = std::make_unique<Texture>(mats[i].spec, mats[i].width_m, mats[i].height_m, tpm);
     };
-    std::vector<std::thread> pool;
-    for (int i = 1; i < threads; i++) pool.emplace_back(build);
-    build();
-    for (auto& th : pool) th.join();
+    onThreads(threads, build);
   }
 
   /** Primitives in view, prepared for ray casting, and binned into the
@@ -424,10 +431,7 @@ struct Renderer::Impl {
         }
       }
     };
-    std::vector<std::thread> pool;
-    for (int i = 1; i < threads; i++) pool.emplace_back(work);
-    work();
-    for (auto& th : pool) th.join();
+    onThreads(threads, work);
   }
 
   /** Runs fn(y0, y1) over row bands on `threads` threads (bands are
@@ -439,16 +443,13 @@ struct Renderer::Impl {
     auto work = [&]() {
       for (int b = next++; b < bands; b = next++) fn(b * H / bands, (b + 1) * H / bands);
     };
-    std::vector<std::thread> pool;
-    for (int i = 1; i < threads; i++) pool.emplace_back(work);
-    work();
-    for (auto& th : pool) th.join();
+    onThreads(threads, work);
   }
 
   /** Per-pixel random bits: one 64-bit hash per (frame, stream, pixel). */
   uint64_t pixelHash(int frame, uint64_t stream, int y, int x) const {
-    return mix64(s.seed ^ mix64((static_cast<uint64_t>(frame) << 8) + stream) ^
-                 (static_cast<uint64_t>(y) << 32 | static_cast<uint64_t>(x)));
+    return splitmix64(s.seed ^ splitmix64((static_cast<uint64_t>(frame) << 8) + stream) ^
+                      (static_cast<uint64_t>(y) << 32 | static_cast<uint64_t>(x)));
   }
 
   /** Colour post-processing: lens blur, sensor noise, 8-bit. */

@@ -41,20 +41,26 @@ struct Ctx {
   int px(double metres) const { return std::max(1, static_cast<int>(std::lround(metres * tpm * spec.scale))); }
 };
 
-/** Adds low-frequency mottling of amplitude `amp` (grey levels). */
-void mottle(Ctx& c, double amp, double cell_m) {
-  const int gw = std::max(2, c.img.cols / std::max(1, c.px(cell_m))), gh = std::max(2, c.img.rows / std::max(1, c.px(cell_m)));
+/** Adds a grey field to the image: a gw x gh grid of uniform values in
+ *  [-amp, amp] (drawn row by row) resized to the image with `interp`. */
+void addField(Ctx& c, int gw, int gh, double amp, int interp) {
   Mat g(gh, gw, CV_32F);
   for (int y = 0; y < gh; y++)
     for (int x = 0; x < gw; x++) g.at<float>(y, x) = static_cast<float>(c.rng.uniform(-amp, amp));
   Mat big;
-  cv::resize(g, big, c.img.size(), 0, 0, cv::INTER_CUBIC);
+  cv::resize(g, big, c.img.size(), 0, 0, interp);
   Mat f;
   c.img.convertTo(f, CV_32FC3);
   Mat big3;
   cv::merge(std::vector<Mat>{big, big, big}, big3);
   f += big3;
   f.convertTo(c.img, CV_8UC3);
+}
+
+/** Adds low-frequency mottling of amplitude `amp` (grey levels). */
+void mottle(Ctx& c, double amp, double cell_m) {
+  const int gw = std::max(2, c.img.cols / std::max(1, c.px(cell_m))), gh = std::max(2, c.img.rows / std::max(1, c.px(cell_m)));
+  addField(c, gw, gh, amp, cv::INTER_CUBIC);
 }
 
 /** Per-texel noise of amplitude amp (grey levels). */
@@ -477,17 +483,7 @@ void genPlain(Ctx& c, double noise) {
 void genMetal(Ctx& c) {
   const Vec3 base = c.spec.has_color ? c.spec.color : Vec3(0.6, 0.62, 0.65);
   c.img.setTo(bgr(base));
-  Mat g(c.img.rows, 8, CV_32F);
-  for (int y = 0; y < g.rows; y++)
-    for (int x = 0; x < g.cols; x++) g.at<float>(y, x) = static_cast<float>(c.rng.uniform(-20, 20));
-  Mat big;
-  cv::resize(g, big, c.img.size(), 0, 0, cv::INTER_LINEAR);
-  Mat f;
-  c.img.convertTo(f, CV_32FC3);
-  Mat b3;
-  cv::merge(std::vector<Mat>{big, big, big}, b3);
-  f += b3;
-  f.convertTo(c.img, CV_8UC3);
+  addField(c, 8, c.img.rows, 20, cv::INTER_LINEAR);  // brushed: 8 columns stretched across
   speckles(c, static_cast<int>(c.img.total() / 2000) + 5, 0.006, base, 0.4);
 }
 

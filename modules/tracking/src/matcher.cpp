@@ -16,6 +16,16 @@ inline int dist(const Descriptor& a, const cv::Mat& d, size_t row) {
   return descriptorDistance(a.data(), d.ptr<uint8_t>(static_cast<int>(row)));
 }
 
+/** Pixel (u, v) and 1/z of camera point Xc (ORB-SLAM's SearchByProjection
+ *  arithmetic); false when it is behind the camera or outside the image. */
+bool project(const CameraIntrinsics& cam, const Eigen::Vector3d& Xc, float& invz, float& u, float& v) {
+  if (Xc.z() <= 0) return false;
+  invz = static_cast<float>(1.0 / Xc.z());
+  u = cam.fx * Xc.x() * invz + cam.cx;
+  v = cam.fy * Xc.y() * invz + cam.cy;
+  return cam.bounds.contains(u, v);
+}
+
 }  // namespace
 
 int Matcher::dropByOrientation(const std::vector<float>& rot_diff, std::vector<int>& ids,
@@ -91,12 +101,8 @@ int Matcher::searchByProjection(TrackedFrame& cur, const TrackedFrame& last, flo
   for (size_t i = 0; i < last.size(); i++) {
     const MapPointPtr& mp = last.points[i];
     if (!mp || last.outlier[i] || mp->bad || !mp->active) continue;
-    const Eigen::Vector3d Xc = Tcw * mp->pos;
-    if (Xc.z() <= 0) continue;
-    const float invz = static_cast<float>(1.0 / Xc.z());
-    const float u = cur.cam.fx * Xc.x() * invz + cur.cam.cx;
-    const float v = cur.cam.fy * Xc.y() * invz + cur.cam.cy;
-    if (!cur.cam.bounds.contains(u, v)) continue;
+    float invz, u, v;
+    if (!project(cur.cam, Tcw * mp->pos, invz, u, v)) continue;
     const int last_oct = last.f.keypoints_un[i].octave;
     const float r = th * sc.scale[last_oct];
     if (forward)
@@ -142,12 +148,8 @@ int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<co
   for (size_t i = 0; i < kf->points.size(); i++) {
     const MapPointPtr& mp = kf->points[i];
     if (!mp || mp->bad || !mp->active || found.count(mp.get())) continue;
-    const Eigen::Vector3d Xc = Tcw * mp->pos;
-    if (Xc.z() <= 0) continue;
-    const float invz = static_cast<float>(1.0 / Xc.z());
-    const float u = F.cam.fx * Xc.x() * invz + F.cam.cx;
-    const float v = F.cam.fy * Xc.y() * invz + F.cam.cy;
-    if (!F.cam.bounds.contains(u, v)) continue;
+    float invz, u, v;
+    if (!project(F.cam, Tcw * mp->pos, invz, u, v)) continue;
     const float d3 = static_cast<float>((mp->pos - Ow).norm());
     if (d3 < 0.8f * mp->min_dist || d3 > 1.2f * mp->max_dist) continue;
     const int level = mp->predictScale(d3, sc.log_scale_factor, sc.n_levels);
@@ -183,20 +185,14 @@ int Matcher::matchKeyFrameToFrame(KeyFrame* kf, TrackedFrame& F, ForEachPair&& f
     const MapPointPtr& mp = kf->points[i];
     if (!mp || mp->bad || !mp->active) return;
     const uint8_t* dk = kf->descriptors.ptr<uint8_t>(static_cast<int>(i));
-    int b1 = 256, b2 = 256, bi = -1;
+    BestTwo best;
     for (const auto jj : candidates) {
       const size_t j = static_cast<size_t>(jj);
       if (!F.usable(j)) continue;
-      const int d = descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (d < b1) {
-        b2 = b1;
-        b1 = d;
-        bi = static_cast<int>(j);
-      } else if (d < b2) {
-        b2 = d;
-      }
+      best.offer(descriptorDistance(dk, F.f.descriptors.ptr<uint8_t>(static_cast<int>(j))), static_cast<int>(j));
     }
-    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * b2) return;
+    const int b1 = best.d1, bi = best.idx;
+    if (bi < 0 || b1 > p_.th_low || b1 >= p_.nn_ratio * best.d2) return;
     if (b1 < best_for_f[bi]) {  // one-to-one: keep the closest keyframe point per frame keypoint
       best_for_f[bi] = b1;
       kf_for_f[bi] = static_cast<int>(i);
@@ -242,20 +238,14 @@ int Matcher::searchByBoW(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>&
     const MapPointPtr& mp1 = kf1->points[i];
     if (!mp1 || mp1->bad || !kf1->usable(i)) return;
     const uint8_t* d1 = kf1->descriptors.ptr<uint8_t>(static_cast<int>(i));
-    int b1 = 256, b2 = 256, bi = -1;
+    BestTwo best;
     for (uint32_t j : cands) {
       const MapPointPtr& mp2 = kf2->points[j];
       if (used2[j] || !mp2 || mp2->bad || !mp2->active || !kf2->usable(j)) continue;
-      const int d = descriptorDistance(d1, kf2->descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (d < b1) {
-        b2 = b1;
-        b1 = d;
-        bi = static_cast<int>(j);
-      } else if (d < b2) {
-        b2 = d;
-      }
+      best.offer(descriptorDistance(d1, kf2->descriptors.ptr<uint8_t>(static_cast<int>(j))), static_cast<int>(j));
     }
-    if (bi < 0 || b1 >= p_.th_low || b1 >= p_.nn_ratio * b2) return;
+    const int b1 = best.d1, bi = best.idx;
+    if (bi < 0 || b1 >= p_.th_low || b1 >= p_.nn_ratio * best.d2) return;
     matches12[i] = kf2->points[bi];
     used2[bi] = 1;
     ids.push_back(static_cast<int>(i));

@@ -171,17 +171,10 @@ std::vector<int> matchDescriptors(const std::vector<cv::KeyPoint>& ck, const cv:
     const cv::KeyPoint& kc = ck[cur[i]];
     if (mp.finest_level_only && kc.octave > 0) continue;
     const uint8_t* d1 = cd.ptr<uint8_t>(cur[i]);
-    int best = INT_MAX, best2 = INT_MAX, best_j = -1;
+    BestTwo bt(INT_MAX);
     auto consider = [&](int j) {
       const int dist = descriptorDistance(d1, pd.ptr<uint8_t>(prev[j]));
-      if (pst[j].dist <= dist) return;
-      if (dist < best) {
-        best2 = best;
-        best = dist;
-        best_j = j;
-      } else if (dist < best2) {
-        best2 = dist;
-      }
+      if (pst[j].dist > dist) bt.offer(dist, j);  // a previous keypoint keeps a closer match
     };
     if (grid) {
       const int cx = static_cast<int>(std::floor(kc.pt.x / cell)), cy = static_cast<int>(std::floor(kc.pt.y / cell));
@@ -199,6 +192,7 @@ std::vector<int> matchDescriptors(const std::vector<cv::KeyPoint>& ck, const cv:
     } else {
       for (size_t j = 0; j < prev.size(); j++) consider(static_cast<int>(j));
     }
+    const int best = bt.d1, best2 = bt.d2, best_j = bt.idx;
     if (best_j < 0 || best > mp.max_distance) continue;
     if (!(best < static_cast<double>(best2) * mp.nn_ratio)) continue;
     if (pst[best_j].cur >= 0) out[pst[best_j].cur] = -1;

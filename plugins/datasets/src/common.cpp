@@ -56,6 +56,11 @@ void reportOrderFix(const std::string& file, const OrderFix& fix) {
                        << " line(s) without a file name skipped, as the TUM benchmark tools do");
 }
 
+void requireFrameIndex(size_t i, size_t n) {
+  if (i >= n)
+    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(n) + " frames)");
+}
+
 void requireIncreasing(const std::vector<double>& s, const std::string& where) {
   for (size_t i = 1; i < s.size(); i++)
     if (!(s[i] > s[i - 1]))

@@ -67,6 +67,9 @@ OrderFix sortKeepLast(std::vector<E>& v, Key key) {
  *  if nothing changed. */
 void reportOrderFix(const std::string& file, const OrderFix& fix);
 
+/** Throws DataError("frame index i out of range (n frames)") unless i < n. */
+void requireFrameIndex(size_t i, size_t n);
+
 /** Throws DataError("<where>: timestamps must increase ...") unless strictly increasing. */
 void requireIncreasing(const std::vector<double>& stamps, const std::string& where);
 

@@ -1,5 +1,6 @@
 #include "dslam/plugins/datasets/convert.h"
 
+#include <mrpt/containers/yaml.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/serialization/CArchive.h>
@@ -28,13 +29,13 @@ namespace dslam {
 
 namespace {
 
-std::string yamlQuote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
+/** Resolves a reader's parameters from string values given as YAML string
+ *  nodes (no YAML text is built from paths or labels). */
+Params readerParams(const std::vector<ParamSpec>& specs, const std::vector<std::pair<std::string, std::string>>& kv) {
+  mrpt::containers::yaml given = mrpt::containers::yaml::Map();
+  for (const auto& [k, v] : kv)
+    if (!v.empty()) given[k.c_str()] = v;
+  return Params::resolve(specs, &given, SourceLocation{});
 }
 
 /** Restores CImage's global JPEG flag on scope exit. */
@@ -49,10 +50,10 @@ struct NoJpeg {
 ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& out_rawlog,
                                  const TumToRawlogOptions& opt) {
   TumDataset tum;
-  std::string y = "path: " + yamlQuote(in_dir) + "\n";
-  if (!opt.associations.empty()) y += "associations: " + yamlQuote(opt.associations) + "\n";
-  y += "max_dt: " + std::to_string(opt.max_dt) + "\n";
-  tum.configure(Params::resolve(tum.paramSpecs(), y), PluginContext{});
+  tum.configure(readerParams(tum.paramSpecs(), {{"path", in_dir},
+                                                {"associations", opt.associations},
+                                                {"max_dt", std::to_string(opt.max_dt)}}),
+                PluginContext{});
 
   ConvertReport rep;
   CameraModel cam;
@@ -132,10 +133,9 @@ ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& o
 ConvertReport convertRawlogToTum(const std::string& in_rawlog, const std::string& out_dir,
                                  const RawlogToTumOptions& opt) {
   RawlogDataset rl;
-  std::string y = "path: " + yamlQuote(in_rawlog) + "\n";
-  if (!opt.sensor_label.empty()) y += "sensor_label: " + yamlQuote(opt.sensor_label) + "\n";
-  if (!opt.images_dir.empty()) y += "images_dir: " + yamlQuote(opt.images_dir) + "\n";
-  rl.configure(Params::resolve(rl.paramSpecs(), y), PluginContext{});
+  rl.configure(readerParams(rl.paramSpecs(),
+                            {{"path", in_rawlog}, {"sensor_label", opt.sensor_label}, {"images_dir", opt.images_dir}}),
+               PluginContext{});
   if (rl.sensor() == SensorType::Stereo)
     throw DataError("rawlog2tum: sensor '" + rl.sensorLabel() + "' of " + in_rawlog +
                     " is stereo; the TUM layout holds RGB-D or monocular sequences");

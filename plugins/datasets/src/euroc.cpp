@@ -231,8 +231,7 @@ void EurocDataset::configure(const Params& p, const PluginContext& ctx) {
 double EurocDataset::timestamp(size_t i) const { return frames_.at(i).t_ns * 1e-9; }
 
 SensorFrame EurocDataset::read(size_t i) {
-  if (i >= frames_.size())
-    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(frames_.size()) + " frames)");
+  ds::requireFrameIndex(i, frames_.size());
   const Item& it = frames_[i];
   SensorFrame f;
   f.index = static_cast<int>(i);

@@ -214,8 +214,7 @@ void KittiDataset::configure(const Params& p, const PluginContext& ctx) {
 }
 
 SensorFrame KittiDataset::read(size_t i) {
-  if (i >= names_.size())
-    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(names_.size()) + " frames)");
+  ds::requireFrameIndex(i, names_.size());
   SensorFrame f;
   f.index = static_cast<int>(i);
   f.timestamp = stamps_[i];

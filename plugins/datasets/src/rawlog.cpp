@@ -86,6 +86,11 @@ struct RawlogDataset::Impl {
   mrpt::serialization::CSerializable::Ptr cached;
   size_t cached_idx = static_cast<size_t>(-1);
 
+  /** Reads the whole file once: frames and camera of every sensor label. */
+  void scan();
+  /** Selects the label to read ('' = the only one) and checks its frames. */
+  void select(const std::string& wanted);
+
   void open() {
     in = std::make_unique<mrpt::io::CFileGZInputStream>();
     if (!in->open(file)) throw DataError("cannot open rawlog " + file + " (" + kRawlogLayout + ")");
@@ -180,6 +185,117 @@ std::vector<RawlogDataset::LabelInfo> RawlogDataset::labels() const {
   return out;
 }
 
+namespace {
+
+/** Camera of the first observation of a label (kind k), as dslam reads it. */
+CameraModel cameraOfObservation(Kind k, const CObservation& o, const std::string& what, bool& needs_registration) {
+  CameraModel c;
+  c.name = "rawlog:" + o.sensorLabel;
+  if (k == Kind::RGBD) {
+    const auto& r = dynamic_cast<const CObservation3DRangeScan&>(o);
+    c.sensor = SensorType::RGBD;
+    c.left = rawlog::fromTCamera(r.cameraParamsIntensity, what);
+    const double f = 1.0 / static_cast<double>(r.rangeUnits);
+    c.depth_factor = std::abs(f - std::round(f)) < 1e-3 * f ? std::round(f) : f;
+    c.baseline = 40.0 / c.left.fx;  // virtual stereo as ORB-SLAM2's TUM yamls (bf = 40)
+    c.depth_threshold = 40.0;
+    needs_registration = rawlog::needsRegistration(r);
+  } else if (k == Kind::Mono) {
+    const auto& m = dynamic_cast<const CObservationImage&>(o);
+    c.sensor = SensorType::Monocular;
+    c.left = rawlog::fromTCamera(m.cameraParams, what);
+  } else {
+    const auto& st = dynamic_cast<const CObservationStereoImages&>(o);
+    c.sensor = flag(st.hasImageRight) ? SensorType::Stereo : SensorType::Monocular;
+    c.left = rawlog::fromTCamera(st.leftCamera, what);
+    c.right = rawlog::fromTCamera(st.rightCamera, what);
+    c.T_left_right = rawlog::toSE3(mrpt::poses::CPose3D(st.rightCameraPose));
+    const auto& t = c.T_left_right.translation();
+    const bool pure_x = c.T_left_right.angle() < 1e-9 && std::abs(t.y()) < 1e-9 && std::abs(t.z()) < 1e-9;
+    const bool same_k =
+        c.left.fx == c.right.fx && c.left.fy == c.right.fy && c.left.cx == c.right.cx && c.left.cy == c.right.cy;
+    c.rectified = pure_x && same_k && !c.left.hasDistortion() && !c.right.hasDistortion();
+    c.baseline = t.norm();
+    c.depth_threshold = 35.0;
+  }
+  return c;
+}
+
+}  // namespace
+
+void RawlogDataset::Impl::scan() {
+  // One pass over the file: frame indices per label, camera of the first observation.
+  std::map<std::string, size_t> other;  // class counts of unsupported objects
+  open();
+  auto consider = [&](const CObservation::Ptr& o, size_t obj, int sub) {
+    const Kind k = kindOf(*o);
+    if (k == Kind::None) {
+      other[o->GetRuntimeClass()->className]++;
+      return;
+    }
+    LabelScan& s = scans[o->sensorLabel];
+    if (s.kind == Kind::None) {
+      s.kind = k;
+      s.cls = o->GetRuntimeClass()->className;
+      s.camera = cameraOfObservation(k, *o, "rawlog " + file + ": " + rawlog::describeObs(*o), s.needs_registration);
+    } else if (s.kind != k) {
+      throw DataError("rawlog " + file + ": sensor label '" + o->sensorLabel + "' has both " + s.cls + " and " +
+                      o->GetRuntimeClass()->className + " observations; cannot read it as one sequence");
+    }
+    s.frames.push_back({obj, sub, mrpt::Clock::toDouble(o->timestamp)});
+  };
+  bool any_sf = false, any_obs = false;
+  for (size_t obj = 0;; obj++) {
+    auto o = readNext();
+    if (!o) break;
+    if (auto sf = std::dynamic_pointer_cast<CSensoryFrame>(o)) {
+      any_sf = true;
+      for (size_t k = 0; k < sf->size(); k++) consider(sf->getObservationByIndex(k), obj, static_cast<int>(k));
+    } else if (auto ob = std::dynamic_pointer_cast<CObservation>(o)) {
+      any_obs = true;
+      consider(ob, obj, -1);
+    } else {
+      other[o->GetRuntimeClass()->className]++;
+    }
+    n_objects = obj + 1;
+  }
+  in.reset();
+  sf_format = any_sf && !any_obs;
+  if (scans.empty()) {
+    std::string oth;
+    for (const auto& [c, n] : other) oth += (oth.empty() ? "" : ", ") + c + " x" + std::to_string(n);
+    throw DataError("rawlog " + file + ": no camera observations (" + std::to_string(n_objects) + " objects" +
+                    (oth.empty() ? std::string() : ": " + oth) + "; " + kRawlogLayout + ")");
+  }
+}
+
+void RawlogDataset::Impl::select(const std::string& wanted) {
+  std::string found;
+  for (const auto& [l, s] : scans) found += (found.empty() ? "" : ", ") + ("'" + l + "' (" + s.cls + " x" + std::to_string(s.frames.size()) + ")");
+  label = wanted;
+  if (label.empty()) {
+    if (scans.size() > 1)
+      throw ConfigError("rawlog " + file + " has several camera sensor labels: " + found +
+                        "; choose one with the parameter sensor_label");
+    label = scans.begin()->first;
+  } else if (!scans.count(label)) {
+    throw ConfigError("rawlog " + file + " has no camera observations with sensor label '" + label +
+                      "'; labels: " + found);
+  }
+  sel = &scans[label];
+  std::vector<double> stamps;
+  for (const auto& f : sel->frames) stamps.push_back(f.t);
+  ds::requireIncreasing(stamps, "rawlog " + file + " (sensor '" + label + "')");
+  do_register = sel->kind == Kind::RGBD && sel->needs_registration && register_depth;
+  if (sel->kind == Kind::RGBD && sel->needs_registration && !register_depth)
+    DSLAM_LOG(Warn, "rawlog " << file << ": depth and intensity cameras differ but register_depth is false; "
+                               "depth pixels will not line up with the image");
+  if (stamps.size() > 1 && stamps.back() > stamps.front())
+    sel->camera.fps = (stamps.size() - 1) / (stamps.back() - stamps.front());
+  else
+    sel->camera.fps = 30.0;
+}
+
 void RawlogDataset::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
   auto& I = *impl_;
@@ -195,104 +311,8 @@ void RawlogDataset::configure(const Params& p, const PluginContext& ctx) {
     I.images_dir = resolvePath(I.images_dir, fs::path(I.file).parent_path().string());
   }
   I.register_depth = p.getBool("register_depth");
-
-  // One pass over the file: frame indices per label, camera of the first observation.
-  std::map<std::string, size_t> other;  // class counts of unsupported objects
-  I.open();
-  auto consider = [&](const CObservation::Ptr& o, size_t obj, int sub) {
-    const Kind k = kindOf(*o);
-    if (k == Kind::None) {
-      other[o->GetRuntimeClass()->className]++;
-      return;
-    }
-    LabelScan& s = I.scans[o->sensorLabel];
-    if (s.kind == Kind::None) {
-      s.kind = k;
-      s.cls = o->GetRuntimeClass()->className;
-      CameraModel& c = s.camera;
-      c.name = "rawlog:" + o->sensorLabel;
-      const std::string what = "rawlog " + I.file + ": " + rawlog::describeObs(*o);
-      if (k == Kind::RGBD) {
-        const auto& r = dynamic_cast<const CObservation3DRangeScan&>(*o);
-        c.sensor = SensorType::RGBD;
-        c.left = rawlog::fromTCamera(r.cameraParamsIntensity, what);
-        const double f = 1.0 / static_cast<double>(r.rangeUnits);
-        c.depth_factor = std::abs(f - std::round(f)) < 1e-3 * f ? std::round(f) : f;
-        c.baseline = 40.0 / c.left.fx;  // virtual stereo as ORB-SLAM2's TUM yamls (bf = 40)
-        c.depth_threshold = 40.0;
-        s.needs_registration = rawlog::needsRegistration(r);
-      } else if (k == Kind::Mono) {
-        const auto& m = dynamic_cast<const CObservationImage&>(*o);
-        c.sensor = SensorType::Monocular;
-        c.left = rawlog::fromTCamera(m.cameraParams, what);
-      } else {
-        const auto& st = dynamic_cast<const CObservationStereoImages&>(*o);
-        c.sensor = flag(st.hasImageRight) ? SensorType::Stereo : SensorType::Monocular;
-        c.left = rawlog::fromTCamera(st.leftCamera, what);
-        c.right = rawlog::fromTCamera(st.rightCamera, what);
-        c.T_left_right = rawlog::toSE3(mrpt::poses::CPose3D(st.rightCameraPose));
-        const auto& t = c.T_left_right.translation();
-        const bool pure_x = c.T_left_right.angle() < 1e-9 && std::abs(t.y()) < 1e-9 && std::abs(t.z()) < 1e-9;
-        const bool same_k = c.left.fx == c.right.fx && c.left.fy == c.right.fy && c.left.cx == c.right.cx &&
-                            c.left.cy == c.right.cy;
-        c.rectified = pure_x && same_k && !c.left.hasDistortion() && !c.right.hasDistortion();
-        c.baseline = t.norm();
-        c.depth_threshold = 35.0;
-      }
-    } else if (s.kind != k) {
-      throw DataError("rawlog " + I.file + ": sensor label '" + o->sensorLabel + "' has both " + s.cls + " and " +
-                      o->GetRuntimeClass()->className + " observations; cannot read it as one sequence");
-    }
-    s.frames.push_back({obj, sub, mrpt::Clock::toDouble(o->timestamp)});
-  };
-  bool any_sf = false, any_obs = false;
-  for (size_t obj = 0;; obj++) {
-    auto o = I.readNext();
-    if (!o) break;
-    if (auto sf = std::dynamic_pointer_cast<CSensoryFrame>(o)) {
-      any_sf = true;
-      for (size_t k = 0; k < sf->size(); k++) consider(sf->getObservationByIndex(k), obj, static_cast<int>(k));
-    } else if (auto ob = std::dynamic_pointer_cast<CObservation>(o)) {
-      any_obs = true;
-      consider(ob, obj, -1);
-    } else {
-      other[o->GetRuntimeClass()->className]++;
-    }
-    I.n_objects = obj + 1;
-  }
-  I.in.reset();
-  I.sf_format = any_sf && !any_obs;
-
-  std::string found;
-  for (const auto& [l, s] : I.scans) found += (found.empty() ? "" : ", ") + ("'" + l + "' (" + s.cls + " x" + std::to_string(s.frames.size()) + ")");
-  if (I.scans.empty()) {
-    std::string oth;
-    for (const auto& [c, n] : other) oth += (oth.empty() ? "" : ", ") + c + " x" + std::to_string(n);
-    throw DataError("rawlog " + I.file + ": no camera observations (" + std::to_string(I.n_objects) + " objects" +
-                    (oth.empty() ? std::string() : ": " + oth) + "; " + kRawlogLayout + ")");
-  }
-  I.label = p.getString("sensor_label");
-  if (I.label.empty()) {
-    if (I.scans.size() > 1)
-      throw ConfigError("rawlog " + I.file + " has several camera sensor labels: " + found +
-                        "; choose one with the parameter sensor_label");
-    I.label = I.scans.begin()->first;
-  } else if (!I.scans.count(I.label)) {
-    throw ConfigError("rawlog " + I.file + " has no camera observations with sensor label '" + I.label +
-                      "'; labels: " + found);
-  }
-  I.sel = &I.scans[I.label];
-  std::vector<double> stamps;
-  for (const auto& f : I.sel->frames) stamps.push_back(f.t);
-  ds::requireIncreasing(stamps, "rawlog " + I.file + " (sensor '" + I.label + "')");
-  I.do_register = I.sel->kind == Kind::RGBD && I.sel->needs_registration && I.register_depth;
-  if (I.sel->kind == Kind::RGBD && I.sel->needs_registration && !I.register_depth)
-    DSLAM_LOG(Warn, "rawlog " << I.file << ": depth and intensity cameras differ but register_depth is false; "
-                               "depth pixels will not line up with the image");
-  if (stamps.size() > 1 && stamps.back() > stamps.front())
-    I.sel->camera.fps = (stamps.size() - 1) / (stamps.back() - stamps.front());
-  else
-    I.sel->camera.fps = 30.0;
+  I.scan();
+  I.select(p.getString("sensor_label"));
 
   gt_.clear();
   const std::string g = p.getString("groundtruth");
@@ -308,9 +328,7 @@ SensorFrame RawlogDataset::read(size_t i) { return readRaw(i, nullptr, nullptr);
 SensorFrame RawlogDataset::readRaw(size_t i, cv::Mat* depth_raw, double* units) {
   auto& I = *impl_;
   if (!I.sel) throw DataError("RawlogDataset: read() before configure()");
-  if (i >= I.sel->frames.size())
-    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(I.sel->frames.size()) +
-                    " frames)");
+  ds::requireFrameIndex(i, I.sel->frames.size());
   if (depth_raw) depth_raw->release();
   const FrameRef& ref = I.sel->frames[i];
   CObservation::Ptr o = I.observation(ref);

@@ -187,8 +187,7 @@ std::string TumDataset::depthPath(size_t i) const {
 double TumDataset::depthTimestamp(size_t i) const { return frames_.at(i).t_depth; }
 
 SensorFrame TumDataset::read(size_t i) {
-  if (i >= frames_.size())
-    throw DataError("frame index " + std::to_string(i) + " out of range (" + std::to_string(frames_.size()) + " frames)");
+  ds::requireFrameIndex(i, frames_.size());
   const Item& it = frames_[i];
   SensorFrame f;
   f.index = static_cast<int>(i);

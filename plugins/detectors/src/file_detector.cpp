@@ -209,7 +209,12 @@ std::vector<ParamSpec> labelSourceParamSpecs(const std::string& root_doc) {
   };
 }
 
-LabelSource::Options labelSourceOptions(const Params& p, const std::string& root) {
+LabelSource::Options labelSourceOptions(const Params& p, const PluginContext& ctx, const std::string& who) {
+  std::string root = p.getString("dir");
+  if (root.empty()) root = ctx.dataset_root;
+  if (root.empty())
+    throw ConfigError(p.location().str() + (p.location().str().empty() ? "" : ": ") + who +
+                      ": parameter 'dir' is empty and there is no dataset folder to read labels from");
   LabelSource::Options o;
   o.root = root;
   o.boxes_dir = p.getString("boxes_dir");
@@ -244,12 +249,7 @@ std::vector<ParamSpec> FileDetector::paramSpecs() const {
 
 void FileDetector::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
-  std::string root = p.getString("dir");
-  if (root.empty()) root = ctx.dataset_root;
-  if (root.empty())
-    throw ConfigError(p.location().str() + (p.location().str().empty() ? "" : ": ") +
-                      "FileDetector: parameter 'dir' is empty and there is no dataset folder to read labels from");
-  auto o = labelSourceOptions(p, root);
+  auto o = labelSourceOptions(p, ctx, "FileDetector");
   o.box_index80 = p.getString("box_ids") == "index80";
   for (const auto& [k, v] : p.getDoubleMap("semantic_map")) {
     auto kv = yamlu::parseInt(k);

@@ -259,12 +259,7 @@ std::vector<ParamSpec> GroundTruthDetector::paramSpecs() const {
 
 void GroundTruthDetector::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
-  std::string root = p.getString("dir");
-  if (root.empty()) root = ctx.dataset_root;
-  if (root.empty())
-    throw ConfigError(p.location().str() + (p.location().str().empty() ? "" : ": ") +
-                      "GroundTruthDetector: parameter 'dir' is empty and there is no dataset folder");
-  src_.open(labelSourceOptions(p, root));
+  src_.open(labelSourceOptions(p, ctx, "GroundTruthDetector"));
   keys_ = src_.keys();
   key_pos_.clear();
   for (size_t i = 0; i < keys_.size(); i++) key_pos_[keys_[i]] = int64_t(i);

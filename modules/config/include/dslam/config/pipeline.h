@@ -5,7 +5,9 @@
  *      pipeline: {name, mode: sequential|parallel, seed}
  *      dataset:  {type, params: {...}, on_bad_frame: fail|skip, start, max_frames, stride}
  *      camera:   {preset | intrinsics...}   # or $include{../cameras/x.yaml}; omit to use the dataset's
- *      slam:     {...}                      # core SLAM parameters (registered section)
+ *      features: {...}  tracking: {...}  mapping: {...}
+ *      place_recognition: {...}  loop_closing: {...}
+ *                # the SLAM engine's sections (registerSection(), registerSlamSections())
  *      modules:  [{name, type, params, inputs, enabled}, ...]
  *      outputs:  {dir, trajectory, trajectory_format, ...}
  *      plugin_dirs: [...]
@@ -62,7 +64,7 @@ struct PipelineConfig {
   uint64_t seed = 42;
   std::optional<DatasetConfig> dataset;
   std::optional<CameraModel> camera;  ///< nullopt: take the dataset's calibration
-  std::map<std::string, Params> sections;  ///< registered extra sections ("slam", ...)
+  std::map<std::string, Params> sections;  ///< registered extra sections ("features", "tracking", ...)
   std::vector<ModuleConfig> modules;
   Params outputs;
   std::vector<std::string> plugin_dirs;
@@ -74,7 +76,8 @@ struct PipelineConfig {
 };
 
 /** Registers an extra top-level section with its parameter list (the SLAM
- *  engine registers "slam"). Call before loadPipeline(). */
+ *  engine registers features, tracking, mapping, place_recognition and
+ *  loop_closing: dslam::registerSlamSections()). Call before loadPipeline(). */
 void registerSection(const std::string& name, std::function<std::vector<ParamSpec>()> specs,
                      const std::string& doc);
 struct SectionInfo {

@@ -1,7 +1,8 @@
 #pragma once
 /** \file descriptor.h
  *  Hamming distance between 32-byte (256-bit) ORB descriptors: the one
- *  implementation (front end, matcher, classifiers, vocabulary). */
+ *  implementation (front end, matcher, classifiers, vocabulary), and the
+ *  best-two bookkeeping of the ratio test. */
 #include <cstdint>
 #include <cstring>
 
@@ -48,5 +49,22 @@ inline int descriptorDistance(const cv::Mat& a, const cv::Mat& b) {
                b.cols == kOrbDescriptorBytes);
   return descriptorDistance(a.ptr<uint8_t>(), b.ptr<uint8_t>());
 }
+
+/** The two smallest descriptor distances offered and the index of the
+ *  smallest: ORB-SLAM's bestDist / bestDist2 for the nearest-neighbour ratio
+ *  test. `none` is the distance before any offer (idx -1). */
+struct BestTwo {
+  int d1, d2, idx = -1;
+  explicit BestTwo(int none = 256) : d1(none), d2(none) {}
+  void offer(int d, int i) {
+    if (d < d1) {
+      d2 = d1;
+      d1 = d;
+      idx = i;
+    } else if (d < d2) {
+      d2 = d;
+    }
+  }
+};
 
 }  // namespace dslam

@@ -36,6 +36,12 @@ struct CameraIntrinsics {
   ImageBounds bounds;
 };
 
+/** Camera-frame point of undistorted pixel `p` at depth z (z = 1: the
+ *  normalised ray), in the keypoints' float arithmetic. */
+inline Eigen::Vector3d backProject(const CameraIntrinsics& cam, const cv::Point2f& p, float z) {
+  return Eigen::Vector3d((p.x - cam.cx) * z * cam.invfx, (p.y - cam.cy) * z * cam.invfy, z);
+}
+
 class KeyFrame {
  public:
   KeyFrame(int64_t id, const Frame& f, const SE3& T_cw, const CameraIntrinsics& cam,

@@ -12,6 +12,7 @@
 #include <functional>
 #include <list>
 #include <memory>
+#include <mutex>
 
 #include "dslam/core/backend.h"
 #include "dslam/core/params.h"
@@ -70,7 +71,9 @@ class LocalMapper : public KeyFrameSink {
   /** Asks local mapping to hold between keyframes: returns once the keyframe
    *  being processed is finished (its local BA is asked to stop early and is
    *  skipped if it has not started); queued keyframes wait. resume() lets it
-   *  go on. No-ops in sequential mode. */
+   *  go on. Pauses nest (the System holds one while it switches maps, loop
+   *  closing takes its own meanwhile): local mapping goes on when every
+   *  requestPause() has had its resume(). No-ops in sequential mode. */
   void requestPause();
   void resume();
   /** Clears the queue and recent points (map reset). */
@@ -98,6 +101,8 @@ class LocalMapper : public KeyFrameSink {
   std::list<MapPointPtr> recent_points_;
   std::atomic<bool> abort_ba_{false}, pause_req_{false};
   LocalBAStats last_ba_;
+  std::mutex pause_mtx_;
+  int pauses_ = 0;  ///< requestPause() calls not yet resumed (under pause_mtx_)
   Worker<KeyFramePtr> worker_;  ///< last member: its thread stops before the rest is destroyed
 };
 

@@ -123,10 +123,14 @@ class BowDatabase {
     bool used = false;
     BowVector v;
   };
-  /** Shared-word counts (and per-scoring partial sums when `accumulate`)
-   *  for all slots touched by `v`; fills `touched` with slot indices. */
-  void accumulate(const BowVector& v, bool accumulate_scores, std::vector<uint32_t>& touched,
-                  std::vector<int>& counts, std::vector<double>& sums) const;
+  /** Slots sharing words with a query: counts[slot] = shared words,
+   *  sums[slot] = sum of the scoring's word terms (when asked). */
+  struct Touched {
+    std::vector<uint32_t> slots;  ///< kept by the filter, in first-touch order
+    std::vector<int> counts;
+    std::vector<double> sums;
+  };
+  Touched touch(const BowVector& v, bool scores, const Filter& keep) const;
   double finishScore(double sum, const BowVector& v, const Slot& s) const;
 
   ScoringType scoring_;

@@ -38,8 +38,7 @@ struct TrackedFrame {
   bool unprojectStereo(size_t i, Eigen::Vector3d& Xw) const {
     if (!T_cw || i >= f.depth.size() || f.depth[i] <= 0) return false;
     const float z = f.depth[i];
-    const auto& k = f.keypoints_un[i].pt;
-    Xw = T_cw->inverse() * Eigen::Vector3d((k.x - cam.cx) * z * cam.invfx, (k.y - cam.cy) * z * cam.invfy, z);
+    Xw = T_cw->inverse() * backProject(cam, f.keypoints_un[i].pt, z);
     return true;
   }
   int numMatches() const {

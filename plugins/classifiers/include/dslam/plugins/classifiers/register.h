@@ -6,9 +6,10 @@
 
 namespace dslam {
 
-/** Registers BoxFilter, SemanticFilter, AdaptiveFeatureCount,
- *  DepthRepopulation, EpipolarConsistency, PanopticClassifier and
- *  EkfObjectTracker (idempotent). */
+/** Registers every keypoint classifier of this family (idempotent). The
+ *  list is src/register.cpp; `dslam plugins -i KeypointClassifier` prints
+ *  it, and tests/apps/test_docs.cpp checks that every classifier class is
+ *  registered and named in docs/architecture.md. */
 void register_classifiers_plugins();
 
 }  // namespace dslam

@@ -64,8 +64,9 @@ class LabelSource {
 /** ParamSpecs shared by FileDetector and GroundTruthDetector (label folder
  *  layout, naming, missing-file policy). */
 std::vector<ParamSpec> labelSourceParamSpecs(const std::string& root_doc);
-/** LabelSource::Options from those params; `root` already resolved. */
-LabelSource::Options labelSourceOptions(const Params& p, const std::string& root);
+/** LabelSource::Options from those params. The root is the `dir` parameter,
+ *  else the dataset folder; ConfigError naming `who` when there is neither. */
+LabelSource::Options labelSourceOptions(const Params& p, const PluginContext& ctx, const std::string& who);
 
 /** Precomputed detections from files (any network: Mask R-CNN, Detectron2
  *  panoptic, YOLO exports...). */

@@ -9,6 +9,7 @@
 #include "dslam/core/registry.h"
 #include "dslam/map/map.h"
 #include "dslam/slam/system.h"
+#include "plugin_util.h"
 #include "test_support.h"
 
 using namespace dslam;
@@ -24,12 +25,6 @@ SensorFrame load(const std::string& dir, int i, double t, double factor) {
   return f;
 }
 
-std::shared_ptr<Backend> ceres() {
-  register_builtin_plugins();
-  auto b = create<Backend>("dslam::CeresBackend");
-  b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
-  return b;
-}
 }  // namespace
 
 TEST(RgbdPair, TrackerAgreesWithPnpRansacOnTheSameMatches) {
@@ -43,7 +38,7 @@ TEST(RgbdPair, TrackerAgreesWithPnpRansacOnTheSameMatches) {
   cam.depth_factor = 5000;
   SlamParams sp;
   sp.tracker.init_min_points = 300;
-  System sys(cam, sp, ceres());
+  System sys(cam, sp, test::ceresBackend());
   const auto r1 = sys.track(load(dir, 1, 0.0, 5000));
   ASSERT_TRUE(r1.track.initialized);
   const auto r2 = sys.track(load(dir, 2, 1.0 / 30, 5000));

@@ -1,0 +1,57 @@
+// Camera files and the camera section (config/camera_yaml.h): presets,
+// overrides, errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "dslam/config/camera_yaml.h"
+#include "dslam/core/camera_presets.h"
+#include "dslam/core/error.h"
+#include "test_support.h"
+
+using namespace dslam;
+
+TEST(Camera, PresetFilesAgreeWithCodePresets) {
+  for (const auto& name : cameraPresetNames()) {
+    const std::string f = test::source("config/cameras/" + name + ".yaml");
+    ASSERT_TRUE(std::filesystem::exists(f)) << f;
+    const CameraModel a = config::loadCameraFile(f);
+    const CameraModel b = *cameraPreset(name);
+    EXPECT_EQ(a.sensor, b.sensor) << name;
+    EXPECT_EQ(a.left.width, b.left.width) << name;
+    EXPECT_EQ(a.left.height, b.left.height) << name;
+    EXPECT_DOUBLE_EQ(a.left.fx, b.left.fx) << name;
+    EXPECT_DOUBLE_EQ(a.left.fy, b.left.fy) << name;
+    EXPECT_DOUBLE_EQ(a.left.cx, b.left.cx) << name;
+    EXPECT_DOUBLE_EQ(a.left.cy, b.left.cy) << name;
+    for (int i = 0; i < 5; i++) EXPECT_DOUBLE_EQ(a.left.dist[i], b.left.dist[i]) << name;
+    EXPECT_NEAR(a.bf(), b.bf(), 1e-9) << name;
+    EXPECT_DOUBLE_EQ(a.depth_threshold, b.depth_threshold) << name;
+    EXPECT_DOUBLE_EQ(a.fps, b.fps) << name;
+  }
+}
+
+TEST(Camera, MissingIntrinsicsIsAClearError) {
+  const std::string d = test::tempDir("cam");
+  test::writeFile(d + "/c.yaml", "sensor: rgbd\nwidth: 640\nheight: 480\nfx: 500\n");
+  try {
+    config::loadCameraFile(d + "/c.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing required key 'fy'"), std::string::npos) << e.what();
+  }
+  test::writeFile(d + "/s.yaml", "sensor: stereo\nwidth: 640\nheight: 480\nfx: 500\nfy: 500\ncx: 320\ncy: 240\n");
+  EXPECT_THROW(config::loadCameraFile(d + "/s.yaml"), ConfigError);  // stereo without baseline
+  test::writeFile(d + "/d.yaml", "preset: tum_fr3\ndist: [0.1, 0.2, 0.3]\n");
+  EXPECT_THROW(config::loadCameraFile(d + "/d.yaml"), ConfigError);  // 3 distortion values
+}
+
+TEST(Camera, PresetOverride) {
+  const std::string d = test::tempDir("cam");
+  test::writeFile(d + "/c.yaml", "camera:\n  preset: tum_fr3\n  fx: 600\n  width: 320\n");
+  const CameraModel c = config::loadCameraFile(d + "/c.yaml");
+  EXPECT_DOUBLE_EQ(c.left.fx, 600);
+  EXPECT_EQ(c.left.width, 320);
+  EXPECT_DOUBLE_EQ(c.left.fy, 539.2);  // kept from the preset
+  EXPECT_NEAR(c.bf(), 40.0 * 600 / 535.4, 1e-9);  // baseline of the preset, new fx
+}
