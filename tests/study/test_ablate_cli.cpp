@@ -73,7 +73,7 @@ std::vector<std::string> deterministicCsv(const std::string& csv) {
     std::string x;
     while (std::getline(ss, x, ',')) f.push_back(x);
     std::string keep;
-    for (size_t i = 0; i < f.size() && i < 14; i++) keep += f[i] + ",";
+    for (size_t i = 0; i < f.size() && i < 16; i++) keep += f[i] + ",";  // up to max_feature_count
     out.push_back(keep);
   }
   return out;
@@ -126,6 +126,8 @@ TEST(Ablate, RunsEveryCellWritesTheTablesAndResumes) {
     EXPECT_GT(res["rpe_trans_rmse"].get<double>(), 0.0);
     EXPECT_GT(res["peak_mb"].get<double>(), 20.0);  // wait4 ru_maxrss of the run
     EXPECT_LT(res["peak_mb"].get<double>(), 4000.0);
+    EXPECT_GT(res["min_usable_keypoints"].get<double>(), 100.0);
+    EXPECT_GE(res["max_feature_count"].get<double>(), std::string(id) == "fewer.wx.r0" ? 800.0 : 1000.0);
   }
   // The variant's config is the overlay's result.
   const std::string cfg = test::readFile(out + "/cells/no_afc.wx.r0/config.yaml");

@@ -116,7 +116,7 @@ TEST(StudyResults, MarkdownPivotTable) {
   EXPECT_NE(md.find("commit 0123456789ab"), std::string::npos);
   EXPECT_NE(md.find("8 of 9 runs finished (1 failed)"), std::string::npos) << md;
   EXPECT_NE(md.find("| v.d1.r2 | dslam run exit code 1: error: boom, really |"), std::string::npos) << md;
-  EXPECT_NE(md.find("| v | d1 | 2/3 | "), std::string::npos) << md;
+  EXPECT_NE(md.find("| v | d1 | 2/3 | 90.5 | 10 | - | - |"), std::string::npos) << md;
 }
 
 TEST(StudyResults, CsvOneRowPerRun) {
@@ -137,6 +137,8 @@ TEST(StudyResults, CellResultJsonRoundTrip) {
   CellResult r = run("v", "d1", 2, 0.0123);
   r.seed = 7;
   r.ate_scale = 0.95;
+  r.min_usable_keypoints = 219;
+  r.max_feature_count = 1500;
   r.rpe_trans = 0.001;
   r.rpe_rot = 0.05;
   r.wall_s = 3.5;

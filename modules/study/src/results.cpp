@@ -69,6 +69,8 @@ std::string CellResult::toJson() const {
   j["frames"] = frames;
   j["tracked"] = tracked;
   j["keyframes"] = keyframes;
+  j["min_usable_keypoints"] = opt(min_usable_keypoints);
+  j["max_feature_count"] = opt(max_feature_count);
   j["median_ms"] = median_ms;
   j["fps"] = fps;
   j["wall_s"] = wall_s;
@@ -97,6 +99,8 @@ CellResult CellResult::fromJson(const std::string& text, const std::string& sour
     r.frames = j.value("frames", size_t{0});
     r.tracked = j.value("tracked", size_t{0});
     r.keyframes = j.value("keyframes", size_t{0});
+    r.min_usable_keypoints = optD(j, "min_usable_keypoints");
+    r.max_feature_count = optD(j, "max_feature_count");
     r.median_ms = j.value("median_ms", 0.0);
     r.fps = j.value("fps", 0.0);
     r.wall_s = j.value("wall_s", 0.0);
@@ -130,7 +134,7 @@ std::vector<GroupSummary> summarize(const Study& st, const std::vector<CellResul
       g.variant = v.name;
       g.dataset = d.name;
       g.reference = v.reference;
-      std::vector<double> ate, rt, tr, kf, ms, fps, mem;
+      std::vector<double> ate, rt, tr, kf, ms, fps, mem, usable, feat;
       for (const auto& r : results) {
         if (r.variant != v.name || r.dataset != d.name) continue;
         g.runs++;
@@ -145,6 +149,8 @@ std::vector<GroupSummary> summarize(const Study& st, const std::vector<CellResul
         ms.push_back(r.median_ms);
         fps.push_back(r.fps);
         mem.push_back(r.peak_mb);
+        if (r.min_usable_keypoints) usable.push_back(*r.min_usable_keypoints);
+        if (r.max_feature_count) feat.push_back(*r.max_feature_count);
       }
       g.ate = spread(ate);
       g.rpe_trans = spread(rt);
@@ -153,6 +159,8 @@ std::vector<GroupSummary> summarize(const Study& st, const std::vector<CellResul
       g.median_ms = spread(ms);
       g.fps = spread(fps);
       g.peak_mb = spread(mem);
+      g.min_usable_keypoints = spread(usable);
+      g.max_feature_count = spread(feat);
       groups.push_back(std::move(g));
     }
   for (auto& g : groups) {
@@ -179,13 +187,14 @@ std::optional<double> meanRatio(const std::vector<GroupSummary>& groups, const s
 std::string resultsCsv(const Study& st, const std::vector<CellResult>& results) {
   std::ostringstream o;
   o << "study,variant,base,dataset,seed,repeat,cell,status,ate_rmse_m,rpe_trans_rmse_m,rpe_rot_rmse_deg,tracked_pct,"
-       "frames,keyframes,median_ms,fps,peak_mb,wall_s,error\n";
+       "frames,keyframes,min_usable_keypoints,max_feature_count,median_ms,fps,peak_mb,wall_s,error\n";
   auto num = [](const std::optional<double>& v, const char* f) { return v ? fmt(f, *v) : std::string(); };
   for (const auto& r : results) {
     o << csvField(st.name) << "," << csvField(r.variant) << "," << csvField(r.base) << "," << csvField(r.dataset) << ","
       << (r.seed ? std::to_string(*r.seed) : "") << "," << r.repeat << "," << csvField(r.cell) << "," << r.status << ","
       << num(r.ate_rmse, "%.6f") << "," << num(r.rpe_trans, "%.6f") << "," << num(r.rpe_rot, "%.4f") << ","
       << (r.ok() ? fmt("%.2f", r.trackedPercent()) : "") << "," << r.frames << "," << r.keyframes << ","
+      << num(r.min_usable_keypoints, "%.0f") << "," << num(r.max_feature_count, "%.0f") << ","
       << fmt("%.2f", r.median_ms) << "," << fmt("%.2f", r.fps) << "," << fmt("%.1f", r.peak_mb) << ","
       << fmt("%.2f", r.wall_s) << "," << csvField(r.error) << "\n";
   }
@@ -246,16 +255,20 @@ std::string resultsMarkdown(const Study& st, const std::vector<CellResult>& resu
   }
 
   o << "\n## Tracking, speed and memory\n\n";
-  o << "Medians over the successful runs. tracked: % of frames; ms: median tracking time per frame; peak MB: "
-       "peak resident memory of the run. "
+  o << "Medians over the successful runs. tracked: % of frames; fewest usable: the fewest keypoints left in a "
+       "frame after the classifiers; max features: the largest ORB feature count used; ms: median tracking time "
+       "per frame; peak MB: peak resident memory of the run. "
     << prov.tool << ".\n\n";
-  o << "| variant | dataset | runs | tracked % | keyframes | RPE trans. RMSE [m] | median ms | frames/s | peak MB |\n";
-  o << "|---|---|---|---|---|---|---|---|---|\n";
+  o << "| variant | dataset | runs | tracked % | keyframes | fewest usable | max features | RPE trans. RMSE [m] | median ms "
+       "| frames/s | peak MB |\n";
+  o << "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& g : groups) {
     if (!g.runs) continue;
     o << "| " << mdCell(g.variant) << " | " << mdCell(g.dataset) << " | " << g.runs - g.failed << "/" << g.runs
-      << " | " << med(g.tracked_pct, "%.1f") << " | " << med(g.keyframes, "%.0f") << " | " << med(g.rpe_trans, "%.4f")
-      << " | " << med(g.median_ms, "%.1f") << " | " << med(g.fps, "%.1f") << " | " << med(g.peak_mb, "%.0f") << " |\n";
+      << " | " << med(g.tracked_pct, "%.1f") << " | " << med(g.keyframes, "%.0f") << " | "
+      << med(g.min_usable_keypoints, "%.0f") << " | " << med(g.max_feature_count, "%.0f") << " | "
+      << med(g.rpe_trans, "%.4f") << " | " << med(g.median_ms, "%.1f") << " | " << med(g.fps, "%.1f") << " | "
+      << med(g.peak_mb, "%.0f") << " |\n";
   }
   if (failed) {
     o << "\n## Failed runs\n\n| cell | error |\n|---|---|\n";
@@ -292,6 +305,8 @@ std::string resultsJson(const Study& st, const std::vector<CellResult>& results,
                       {"rpe_trans_rmse", spreadJson(g.rpe_trans)},
                       {"tracked_pct", spreadJson(g.tracked_pct)},
                       {"keyframes", spreadJson(g.keyframes)},
+                      {"min_usable_keypoints", spreadJson(g.min_usable_keypoints)},
+                      {"max_feature_count", spreadJson(g.max_feature_count)},
                       {"median_ms", spreadJson(g.median_ms)},
                       {"fps", spreadJson(g.fps)},
                       {"peak_mb", spreadJson(g.peak_mb)}});

@@ -18,6 +18,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -289,6 +290,28 @@ void evaluate(const Study& st, const Started& s, CellResult& r) {
   }
 }
 
+/** The fewest usable keypoints in a frame and the largest feature count of
+ *  the run (frames.csv: frame,timestamp,state,keypoints,usable_keypoints,
+ *  tracked_points,feature_count). */
+void readFramesCsv(const fs::path& p, CellResult& r) {
+  std::ifstream f(p);
+  std::string line;
+  if (!f || !std::getline(f, line)) return;
+  double usable = -1, feat = -1;
+  while (std::getline(f, line)) {
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    std::string x;
+    while (std::getline(ss, x, ',')) c.push_back(x);
+    if (c.size() < 7) continue;
+    const double u = std::atof(c[4].c_str()), n = std::atof(c[6].c_str());
+    usable = usable < 0 ? u : std::min(usable, u);
+    feat = std::max(feat, n);
+  }
+  if (usable >= 0) r.min_usable_keypoints = usable;
+  if (feat >= 0) r.max_feature_count = feat;
+}
+
 /** Result of a finished child; writes result.json then the done marker. */
 CellResult finishCell(const Study& st, const Started& s, const Exit& ex) {
   CellResult r;
@@ -339,6 +362,7 @@ CellResult finishCell(const Study& st, const Started& s, const Exit& ex) {
     r.status = "failed";
     r.error = "no summary.json: " + errorFromLog(log);
   }
+  readFramesCsv(fs::path(s.dir) / "run" / "frames.csv", r);
   if (r.status.empty()) {
     r.status = "ok";
     try {

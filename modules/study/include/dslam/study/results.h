@@ -26,6 +26,10 @@ struct CellResult {
   std::optional<double> rpe_trans;  ///< RMSE, metres
   std::optional<double> rpe_rot;    ///< RMSE, degrees
   size_t frames = 0, tracked = 0, keyframes = 0;
+  /** From the run's frames.csv: the fewest usable (not dynamic) keypoints
+   *  in a frame, and the largest ORB feature count asked for (adaptive
+   *  feature count); nullopt without frames.csv. */
+  std::optional<double> min_usable_keypoints, max_feature_count;
   double median_ms = 0, fps = 0, wall_s = 0;
   /** Peak resident memory of the run, MB: its own VmHWM (summary.json
    *  peak_rss_mb), else wait4's ru_maxrss (which also counts what the
@@ -51,7 +55,8 @@ std::optional<Spread> spread(const std::vector<double>& v);
 struct GroupSummary {
   std::string variant, dataset, reference;
   size_t runs = 0, failed = 0;
-  std::optional<Spread> ate, rpe_trans, tracked_pct, keyframes, median_ms, fps, peak_mb;
+  std::optional<Spread> ate, rpe_trans, tracked_pct, keyframes, median_ms, fps, peak_mb, min_usable_keypoints,
+      max_feature_count;
   /** median ATE / the reference variant's median ATE on the same dataset. */
   std::optional<double> ratio;
 };
