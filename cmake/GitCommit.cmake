@@ -9,7 +9,10 @@ if(GIT_EXE)
     OUTPUT_VARIABLE out RESULT_VARIABLE rc OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
   if(rc EQUAL 0 AND out)
     set(commit "${out}")
-    execute_process(COMMAND ${GIT_EXE} -C ${SOURCE_DIR} status --porcelain --untracked-files=no
+    # Modified tracked files outside the documentation: the build is not
+    # exactly that commit (results tables then say "-modified").
+    execute_process(COMMAND ${GIT_EXE} -C ${SOURCE_DIR} status --porcelain --untracked-files=no -- .
+                            ":(exclude)docs" ":(exclude)*.md"
       OUTPUT_VARIABLE st RESULT_VARIABLE rc2 OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
     if(rc2 EQUAL 0 AND st)
       set(dirty 1)
