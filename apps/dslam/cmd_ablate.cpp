@@ -70,7 +70,11 @@ void run(const Opts& o) {
   if (o.plan) {
     for (const auto& c : study::selectCells(plan, splitPatterns(o.only))) std::cout << c.id << "\n";
     std::cout << std::flush;
-    std::cerr << st.name << ": " << plan.size() << " cells (line k, from 0, is --cell-index k)" << std::endl;
+    if (o.only.empty())
+      std::cerr << st.name << ": " << plan.size() << " cells (line k, from 0, is --cell-index k)" << std::endl;
+    else
+      std::cerr << st.name << ": cells selected by --only, of " << plan.size() << " (--cell-index counts in the full plan)"
+                << std::endl;
     return;
   }
   const study::RunOptions ro = runOptions(o, st);
