@@ -148,7 +148,6 @@ void absolutizeModuleParams(node_t& module, const OverlayOp& op) {
     absolutizePath(kv.second, findSpec(specs, yamlu::scalarText(kv.first).value_or("")), op);
 }
 
-const std::vector<std::string> kModuleKeys = {"name", "type", "params", "inputs", "enabled", "every"};
 
 /** `set: {dotted.path: value, ...}`. Modules are addressed by name
  *  (`modules.<name>.params.<p>`). Every key down to the parameter must exist
@@ -178,9 +177,10 @@ void applySet(node_t& root, const OverlayOp& op) {
       specs = pluginSpecs(ty ? yamlu::scalarText(*ty).value_or("") : "");
       param_index = parts[2] == "params" ? 3 : 2;
       where = "module '" + parts[1] + "'";
-      if (parts[2] != "params" && std::find(kModuleKeys.begin(), kModuleKeys.end(), parts[2]) == kModuleKeys.end())
-        fail(op, "'" + key + "': unknown module key '" + parts[2] + "'" + yamlu::didYouMean(parts[2], kModuleKeys) +
-                     " (valid: " + yamlu::join(kModuleKeys) + ")");
+      const auto& mkeys = config::moduleKeys();
+      if (parts[2] != "params" && std::find(mkeys.begin(), mkeys.end(), parts[2]) == mkeys.end())
+        fail(op, "'" + key + "': unknown module key '" + parts[2] + "'" + yamlu::didYouMean(parts[2], mkeys) +
+                     " (valid: " + yamlu::join(mkeys) + ")");
       if (parts[2] != "params" && parts.size() > 3)
         fail(op, "'" + key + "': '" + parts[2] + "' has no sub-keys");
       if (parts[2] != "params" && !child(*cur, parts[2])) {
@@ -245,7 +245,7 @@ void applyRemove(node_t& root, const OverlayOp& op) {
 void checkModuleEntry(const node_t& m, const OverlayOp& op, const std::vector<std::string>& extra_keys,
                       const std::string& prefix) {
   if (!m.isMap()) fail(op, prefix + "expects a map {name, type, params, inputs, every, enabled}");
-  std::vector<std::string> valid = kModuleKeys;
+  std::vector<std::string> valid = config::moduleKeys();
   valid.insert(valid.end(), extra_keys.begin(), extra_keys.end());
   for (const auto& k : yamlu::keysInOrder(m))
     if (std::find(valid.begin(), valid.end(), k) == valid.end())
