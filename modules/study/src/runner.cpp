@@ -291,20 +291,31 @@ void evaluate(const Study& st, const Started& s, CellResult& r) {
 }
 
 /** The fewest usable keypoints in a frame and the largest feature count of
- *  the run (frames.csv: frame,timestamp,state,keypoints,usable_keypoints,
- *  tracked_points,feature_count). */
+ *  the run, from frames.csv (columns found by their header names
+ *  usable_keypoints and feature_count). */
 void readFramesCsv(const fs::path& p, CellResult& r) {
   std::ifstream f(p);
   std::string line;
   if (!f || !std::getline(f, line)) return;
-  double usable = -1, feat = -1;
-  while (std::getline(f, line)) {
+  auto split = [](const std::string& l) {
     std::vector<std::string> c;
-    std::stringstream ss(line);
+    std::stringstream ss(l);
     std::string x;
     while (std::getline(ss, x, ',')) c.push_back(x);
-    if (c.size() < 7) continue;
-    const double u = std::atof(c[4].c_str()), n = std::atof(c[6].c_str());
+    return c;
+  };
+  const auto header = split(line);
+  const auto col = [&](const char* name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    return it == header.end() ? std::string::npos : static_cast<size_t>(it - header.begin());
+  };
+  const size_t cu = col("usable_keypoints"), cf = col("feature_count");
+  if (cu == std::string::npos || cf == std::string::npos) return;
+  double usable = -1, feat = -1;
+  while (std::getline(f, line)) {
+    const auto c = split(line);
+    if (c.size() <= std::max(cu, cf)) continue;
+    const double u = std::atof(c[cu].c_str()), n = std::atof(c[cf].c_str());
     usable = usable < 0 ? u : std::min(usable, u);
     feat = std::max(feat, n);
   }
