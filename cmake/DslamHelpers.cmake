@@ -18,15 +18,34 @@ function(dslam_add_module)
   set(tgt dslam_${A_NAME})
   if(A_SOURCES)
     add_library(${tgt} ${A_SOURCES})
-    target_include_directories(${tgt} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_include_directories(${tgt} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                             $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
     target_link_libraries(${tgt} PUBLIC ${A_DEPS} PRIVATE ${A_PRIVATE_DEPS})
     dslam_set_warnings(${tgt})
   else()
     add_library(${tgt} INTERFACE)
-    target_include_directories(${tgt} INTERFACE ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_include_directories(${tgt} INTERFACE $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                                $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
     target_link_libraries(${tgt} INTERFACE ${A_DEPS})
   endif()
   add_library(dslam::${A_NAME} ALIAS ${tgt})
+  dslam_install_library(${tgt} ${A_NAME})
+endfunction()
+
+# dslam_install_library(<target> <export name>)
+# Installs a library and its public headers (<current dir>/include) and adds
+# it to the exported package as dslam::<export name> (cmake/install.cmake).
+function(dslam_install_library tgt export_name)
+  set_target_properties(${tgt} PROPERTIES EXPORT_NAME ${export_name})
+  install(TARGETS ${tgt} EXPORT dslamTargets
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  if(IS_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+      FILES_MATCHING PATTERN "*.h" PATTERN "*.hpp")
+  endif()
+  set_property(GLOBAL APPEND PROPERTY DSLAM_EXPORTED_TARGETS dslam::${export_name})
 endfunction()
 
 # dslam_add_plugin_library(NAME <family> SOURCES ... DEPS ...)
@@ -37,10 +56,12 @@ function(dslam_add_plugin_library)
   cmake_parse_arguments(A "" "NAME" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   set(tgt dslam_plugins_${A_NAME})
   add_library(${tgt} ${A_SOURCES})
-  target_include_directories(${tgt} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_include_directories(${tgt} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                           $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(${tgt} PUBLIC dslam::core ${A_DEPS} PRIVATE ${A_PRIVATE_DEPS})
   dslam_set_warnings(${tgt})
   add_library(dslam::plugins_${A_NAME} ALIAS ${tgt})
+  dslam_install_library(${tgt} plugins_${A_NAME})
 endfunction()
 
 # dslam_add_test(NAME <name> SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s])

@@ -10,6 +10,7 @@ PKGS=(
   libmrpt-dev mrpt-apps
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy
+  parallel
 )
 
 missing=()

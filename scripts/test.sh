@@ -11,3 +11,6 @@ if [ ! -d "$DSLAM_SHARED_DIR" ]; then
 fi
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j "${DSLAM_TEST_JOBS:-2}" --timeout 900
+# dslam as an installed package: install to a temporary prefix, check the
+# installed headers, build and run examples/ against it (docs/embedding.md).
+scripts/test_install.sh build

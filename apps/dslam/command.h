@@ -31,6 +31,13 @@ struct CommandRegistrar {
 /** Exit code the callback asks for (0 unless set), e.g. a failed check. */
 int& exitCode();
 
+/** "dslam 0.1.0 (commit 1a2b3c4d5e6f)": release and the git commit of the
+ *  build ("-modified" when the tree had uncommitted changes; "unknown"
+ *  outside git). */
+std::string versionString();
+/** The git commit of the build, as in versionString(). */
+std::string commit();
+
 }  // namespace dslam::app
 
 #define DSLAM_COMMAND(NAME, DESC, SETUP) \

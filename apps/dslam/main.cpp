@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   bool quiet = false;
   app.add_flag("-v,--verbose", verbosity, "more log output (-v debug, -vv trace)");
   app.add_flag("-q,--quiet", quiet, "errors and warnings only");
-  app.set_version_flag("--version", "dslam 0.1.0");
+  app.set_version_flag("--version", app::versionString());
   auto& cmds = app::commands();
   std::sort(cmds.begin(), cmds.end(), [](auto& a, auto& b) { return a.name < b.name; });
   for (auto& c : cmds) c.setup(*app.add_subcommand(c.name, c.description));

@@ -49,6 +49,11 @@ std::vector<SectionInfo> registeredSections() {
   return sectionTable();
 }
 
+const std::vector<std::string>& moduleKeys() {
+  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection"};
+  return k;
+}
+
 std::vector<ParamSpec> pipelineParamSpecs() {
   return {
       P_string("name", "", "pipeline name (default: the file name without extension)"),
@@ -166,7 +171,7 @@ std::string loadDetectionMode(const Loader& L, const node_t& v, const std::strin
 
 /** One entry of `modules:` (key path `kp`), validated against its plug-in. */
 ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp) {
-  static const std::vector<std::string> mkeys = {"name", "type", "params", "inputs", "enabled", "every", "detection"};
+  const std::vector<std::string>& mkeys = moduleKeys();
   if (!e.isMap()) L.fail(kp, &e, "expected a map {name, type, params, inputs}");
   for (const auto& kv : e.asMap()) {
     const std::string k = yamlu::scalarText(kv.first).value_or("");

@@ -389,53 +389,6 @@ void Params::setString(const std::string& key, const std::string& value) {
   given_.insert(key);
 }
 
-namespace {
-bool needsQuotes(const std::string& s) {
-  if (s.empty()) return true;
-  if (s.find_first_of(":#{}[],&*!|>'\"%@`") != std::string::npos) return true;
-  if (s.front() == '-' && (s.size() == 1 || s[1] == ' ')) return true;
-  return s.front() == ' ' || s.back() == ' ';
-}
-std::string scalarOut(const node_t& n) {
-  if (n.isNullNode()) return "~";
-  std::string s = yamlu::scalarText(n).value_or("");
-  if (!needsQuotes(s)) return s;
-  std::string q = "'";
-  for (char c : s) q += (c == '\'' ? std::string("''") : std::string(1, c));
-  return q + "'";
-}
-void emit(std::ostream& o, const node_t& n, int indent) {
-  const std::string pad(indent, ' ');
-  if (n.isMap()) {
-    if (n.asMap().empty()) {
-      o << " {}\n";
-      return;
-    }
-    o << "\n";
-    for (const auto& k : yamlu::keysInOrder(n)) {
-      o << pad << scalarOut(node_t(k)) << ":";
-      emit(o, *yamlu::findValue(n, k), indent + 2);
-    }
-  } else if (n.isSequence()) {
-    bool flat = true;
-    for (const auto& e : n.asSequence()) flat &= e.isScalar() || e.isNullNode();
-    if (flat) {
-      o << " [";
-      size_t i = 0;
-      for (const auto& e : n.asSequence()) o << (i++ ? ", " : "") << scalarOut(e);
-      o << "]\n";
-    } else {
-      o << "\n";
-      for (const auto& e : n.asSequence()) {
-        o << pad << "-";
-        emit(o, e, indent + 2);
-      }
-    }
-  } else {
-    o << " " << scalarOut(n) << "\n";
-  }
-}
-}  // namespace
 
 std::string Params::toYamlText() const {
   std::ostringstream o;
@@ -445,8 +398,8 @@ std::string Params::toYamlText() const {
   for (const auto& k : ks) {
     const node_t* v = yamlu::findValue(y_->node(), k);
     if (!v) continue;
-    o << scalarOut(node_t(k)) << ":";
-    emit(o, *v, 2);
+    o << yamlu::scalarOut(node_t(k)) << ":";
+    yamlu::emitValue(o, *v, 2);
   }
   return o.str();
 }

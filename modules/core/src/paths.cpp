@@ -1,5 +1,7 @@
 #include "dslam/core/paths.h"
 
+#include <dlfcn.h>
+
 #include <cstdlib>
 #include <filesystem>
 
@@ -24,6 +26,24 @@ std::string sharedPath(const std::string& rel) {
               "set DSLAM_SHARED_DIR to the shared folder (default ../shared beside the "
               "checkout) or fetch the upstream files with scripts/download_data.sh");
   return p;
+}
+
+std::string installDataDir() {
+  static const std::string dir = [] {
+    Dl_info info{};
+    if (!dladdr(reinterpret_cast<void*>(&installDataDir), &info) || !info.dli_fname) return std::string();
+    std::error_code ec;
+    const fs::path lib = fs::weakly_canonical(info.dli_fname, ec);
+    if (ec) return std::string();
+    // <prefix>/lib/libdslam_core.so or <prefix>/lib/<multiarch>/libdslam_core.so
+    for (fs::path p = lib.parent_path(); p.has_parent_path() && p != p.root_path(); p = p.parent_path()) {
+      const fs::path cand = p.parent_path() / "share" / "dslam";
+      if (fs::is_regular_file(cand / "dslam_install.txt", ec)) return cand.string();
+      if (p.filename() == "lib" || p.filename() == "lib64") break;
+    }
+    return std::string();
+  }();
+  return dir;
 }
 
 std::string resolvePath(const std::string& p, const std::string& base_dir) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <sstream>
 
@@ -157,11 +158,95 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
+namespace {
+bool needsQuotes(const std::string& s) {
+  if (s.empty()) return true;
+  if (s.find_first_of(":#{}[],&*!|>'\"%@`") != std::string::npos) return true;
+  if (s.front() == '-' && (s.size() == 1 || s[1] == ' ')) return true;
+  return s.front() == ' ' || s.back() == ' ';
+}
+bool hasControl(const std::string& s) {
+  for (unsigned char c : s)
+    if (c < 0x20 || c == 0x7f) return true;
+  return false;
+}
+}  // namespace
+
+std::string scalarOut(const node_t& n) {
+  if (n.isNullNode()) return "~";
+  const std::string s = scalarText(n).value_or("");
+  if (hasControl(s)) {  // double-quoted with escapes: newlines survive
+    std::string q = "\"";
+    char buf[8];
+    for (unsigned char c : s) {
+      if (c == '"' || c == '\\') {
+        q += '\\';
+        q += static_cast<char>(c);
+      } else if (c == '\n') {
+        q += "\\n";
+      } else if (c == '\t') {
+        q += "\\t";
+      } else if (c < 0x20 || c == 0x7f) {
+        std::snprintf(buf, sizeof(buf), "\\x%02x", c);
+        q += buf;
+      } else {
+        q += static_cast<char>(c);
+      }
+    }
+    return q + "\"";
+  }
+  if (!needsQuotes(s)) return s;
+  std::string q = "'";
+  for (char c : s) q += (c == '\'' ? std::string("''") : std::string(1, c));
+  return q + "'";
+}
+
+void emitValue(std::ostream& o, const node_t& n, int indent) {
+  const std::string pad(indent, ' ');
+  if (n.isMap()) {
+    if (n.asMap().empty()) {
+      o << " {}\n";
+      return;
+    }
+    o << "\n";
+    for (const auto& k : keysInOrder(n)) {
+      o << pad << scalarOut(node_t(k)) << ":";
+      emitValue(o, *findValue(n, k), indent + 2);
+    }
+  } else if (n.isSequence()) {
+    bool flat = true;
+    for (const auto& e : n.asSequence()) flat &= e.isScalar() || e.isNullNode();
+    if (flat) {
+      o << " [";
+      size_t i = 0;
+      for (const auto& e : n.asSequence()) o << (i++ ? ", " : "") << scalarOut(e);
+      o << "]\n";
+    } else {
+      o << "\n";
+      for (const auto& e : n.asSequence()) {
+        o << pad << "-";
+        emitValue(o, e, indent + 2);
+      }
+    }
+  } else {
+    o << " " << scalarOut(n) << "\n";
+  }
+}
+
 std::string toYamlText(const mrpt::containers::yaml& y) {
+  const node_t& n = y.node();
   std::ostringstream o;
-  mrpt::containers::YamlEmitOptions eo;
-  eo.emitHeader = false;
-  y.printAsYAML(o, eo);
+  if (n.isMap()) {
+    for (const auto& k : keysInOrder(n)) {
+      o << scalarOut(node_t(k)) << ":";
+      emitValue(o, *findValue(n, k), 2);
+    }
+  } else {
+    std::ostringstream v;
+    emitValue(v, n, 2);
+    const std::string s = v.str();
+    o << (s.empty() ? s : s.substr(1));  // the value without its leading space / newline
+  }
   return o.str();
 }
 

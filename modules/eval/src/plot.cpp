@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,6 +14,7 @@
 #include <limits>
 
 #include "dslam/core/error.h"
+#include "dslam/core/paths.h"
 
 extern char** environ;
 
@@ -58,9 +60,15 @@ void writePlotCsv(const std::string& path, const std::vector<PlotRow>& rows) {
 
 namespace {
 
-/** Runs argv (PATH lookup), optionally silencing its output; returns the
- *  exit status or -1 if it could not be started. */
-int runProcess(const std::vector<std::string>& args, bool quiet) {
+std::string exeDir() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : p.parent_path().string();
+}
+
+}  // namespace
+
+int runProgram(const std::vector<std::string>& args, bool quiet) {
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
@@ -76,32 +84,29 @@ int runProcess(const std::vector<std::string>& args, bool quiet) {
   posix_spawn_file_actions_destroy(&fa);
   if (rc != 0) return -1;
   int st = 0;
-  if (waitpid(pid, &st, 0) < 0) return -1;
+  while (waitpid(pid, &st, 0) < 0)
+    if (errno != EINTR) return -1;
   return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-std::string exeDir() {
-  std::error_code ec;
-  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string() : p.parent_path().string();
-}
-
-}  // namespace
-
-std::string plotScriptPath() {
+std::string findScript(const std::string& file_name) {
   std::vector<std::string> cands;
-  if (const char* e = std::getenv("DSLAM_PLOT_SCRIPT"); e && *e) return fs::exists(e) ? e : "";
-  if (auto d = exeDir(); !d.empty()) cands.push_back(d + "/../share/dslam/plot_trajectory.py");
-  if (const char* e = std::getenv("DSLAM_SOURCE_DIR"); e && *e)
-    cands.push_back(std::string(e) + "/scripts/plot_trajectory.py");
+  if (auto d = exeDir(); !d.empty()) cands.push_back(d + "/../share/dslam/" + file_name);
+  if (auto d = installDataDir(); !d.empty()) cands.push_back(d + "/" + file_name);
+  if (const char* e = std::getenv("DSLAM_SOURCE_DIR"); e && *e) cands.push_back(std::string(e) + "/scripts/" + file_name);
 #ifdef DSLAM_EVAL_SOURCE_DIR
-  cands.push_back(std::string(DSLAM_EVAL_SOURCE_DIR) + "/scripts/plot_trajectory.py");
+  cands.push_back(std::string(DSLAM_EVAL_SOURCE_DIR) + "/scripts/" + file_name);
 #endif
   for (const auto& c : cands) {
     std::error_code ec;
     if (fs::is_regular_file(c, ec)) return fs::weakly_canonical(c, ec).string();
   }
   return "";
+}
+
+std::string plotScriptPath() {
+  if (const char* e = std::getenv("DSLAM_PLOT_SCRIPT"); e && *e) return fs::exists(e) ? e : "";
+  return findScript("plot_trajectory.py");
 }
 
 std::string findPlotPython() {
@@ -111,7 +116,7 @@ std::string findPlotPython() {
   else
     cands = {"python3", "/usr/bin/python3"};
   for (const auto& py : cands)
-    if (runProcess({py, "-c", "import matplotlib"}, true) == 0) return py;
+    if (runProgram({py, "-c", "import matplotlib"}, true) == 0) return py;
   return "";
 }
 
@@ -129,7 +134,7 @@ std::string plot(const std::string& png, const std::vector<PlotRow>& rows, const
     throw Error("plot script plot_trajectory.py not found (set DSLAM_PLOT_SCRIPT); the plot data was written to " +
                 csv);
   const int rc =
-      runProcess({py, script, "--csv", csv, "--out", png, "--title", title, "--error-label", error_label}, false);
+      runProgram({py, script, "--csv", csv, "--out", png, "--title", title, "--error-label", error_label}, false);
   if (rc != 0)
     throw Error(py + " " + script + " failed (exit " + std::to_string(rc) + "); the plot data was written to " + csv);
   std::error_code ec;

@@ -5,10 +5,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <sstream>
 
 #include "dslam/core/descriptor.h"
 #include "dslam/core/error.h"
+#include "dslam/core/paths.h"
 
 #ifndef DSLAM_DEFAULT_VOCABULARY
 #define DSLAM_DEFAULT_VOCABULARY ""
@@ -273,6 +275,11 @@ bool Vocabulary::operator==(const Vocabulary& o) const {
 
 std::string defaultVocabularyPath() {
   if (const char* e = std::getenv("DSLAM_VOCABULARY"); e && *e) return e;
+  // An installed dslam ships the vocabulary in <prefix>/share/dslam.
+  if (const std::string d = installDataDir(); !d.empty()) {
+    const std::string p = d + "/" + std::filesystem::path(DSLAM_DEFAULT_VOCABULARY).filename().string();
+    if (fileExists(p)) return p;
+  }
   return DSLAM_DEFAULT_VOCABULARY;
 }
 

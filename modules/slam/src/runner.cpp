@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -177,36 +178,8 @@ std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverride
 
 std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const RunOverrides& ov,
                                        const CameraModel& cam, const PluginContext& base) {
-  SlamParams sp = SlamParams::fromConfig(pc);
-  if (ov.localization_only) sp.tracker.localization_only = true;
-  std::shared_ptr<Backend> backend;
-  std::shared_ptr<MapManager> maps;
-  for (const auto* m : pc.modulesOf("Backend"))
-    if (!backend) backend = std::dynamic_pointer_cast<Backend>(makeModule(*m, base));
-  if (!backend) {
-    backend = create<Backend>("dslam::CeresBackend");
-    backend->configure(Params::resolve(backend->paramSpecs(), ""), base);
-  }
-  for (const auto* m : pc.modulesOf("MapManager"))
-    if (!maps) maps = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
-
-  auto sys = std::make_unique<System>(cam, sp, backend, pc.mode, maps);
+  auto sys = buildSystem(pc, cam, base, ov.localization_only);
   if (!ov.load_atlas.empty()) sys->loadMaps(ov.load_atlas);
-  const auto detectors = pc.modulesOf("Detector");
-  for (const auto* m : detectors) {
-    const auto dm = m->detection == "sync"    ? System::DetectionMode::Sync
-                    : m->detection == "async" ? System::DetectionMode::Async
-                                              : System::DetectionMode::Auto;
-    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm);
-  }
-  for (const auto* m : pc.modulesOf("KeypointClassifier")) {
-    auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));
-    std::string input;
-    for (const auto& in : m->inputs)
-      for (const auto* d : detectors)
-        if (d->name == in) input = in;
-    sys->addClassifier(m->name, c, input);
-  }
   return sys;
 }
 
@@ -349,6 +322,17 @@ std::string evaluateAte(const DatasetSource& reader, const Trajectory& traj, Run
   }
 }
 
+/** Peak resident memory of this process image, MB (VmHWM of
+ *  /proc/self/status: unlike getrusage's ru_maxrss it does not include what
+ *  the process that forked this one had resident); 0 if unknown. */
+double peakRssMb() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::strtod(line.c_str() + 6, nullptr) / 1024.0;
+  return 0;
+}
+
 void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc, const RunSummary& sum) {
   json j;
   j["pipeline"] = pc.name;
@@ -365,6 +349,7 @@ void writeSummaryJson(const std::string& path, const config::PipelineConfig& pc,
   j["wall_s"] = sum.wall_s;
   j["skipped_frames"] = sum.skipped_frames;
   j["empty_depth_frames"] = sum.empty_depth_frames;
+  j["peak_rss_mb"] = peakRssMb();
   if (sum.ate_rmse) {
     j["ate_rmse"] = *sum.ate_rmse;
     j["ate_pairs"] = sum.ate_pairs;
@@ -416,6 +401,44 @@ Trajectory writeOutputs(System& sys, const config::PipelineConfig& pc, const Run
 }
 
 }  // namespace
+
+std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const CameraModel& cam, PluginContext base,
+                                    bool localization_only) {
+  if (base.config_dir.empty()) base.config_dir = pc.dir;
+  if (base.shared_dir.empty()) base.shared_dir = sharedDir();
+  base.seed = pc.seed;
+  base.camera = &cam;
+  SlamParams sp = SlamParams::fromConfig(pc);
+  if (localization_only) sp.tracker.localization_only = true;
+  std::shared_ptr<Backend> backend;
+  std::shared_ptr<MapManager> maps;
+  for (const auto* m : pc.modulesOf("Backend"))
+    if (!backend) backend = std::dynamic_pointer_cast<Backend>(makeModule(*m, base));
+  if (!backend) {
+    backend = create<Backend>("dslam::CeresBackend");
+    backend->configure(Params::resolve(backend->paramSpecs(), ""), base);
+  }
+  for (const auto* m : pc.modulesOf("MapManager"))
+    if (!maps) maps = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
+
+  auto sys = std::make_unique<System>(cam, sp, backend, pc.mode, maps);
+  const auto detectors = pc.modulesOf("Detector");
+  for (const auto* m : detectors) {
+    const auto dm = m->detection == "sync"    ? System::DetectionMode::Sync
+                    : m->detection == "async" ? System::DetectionMode::Async
+                                              : System::DetectionMode::Auto;
+    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm);
+  }
+  for (const auto* m : pc.modulesOf("KeypointClassifier")) {
+    auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));
+    std::string input;
+    for (const auto& in : m->inputs)
+      for (const auto* d : detectors)
+        if (d->name == in) input = in;
+    sys->addClassifier(m->name, c, input);
+  }
+  return sys;
+}
 
 RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov) {
   RunSummary sum;

@@ -87,6 +87,9 @@ struct SectionInfo {
 std::vector<SectionInfo> registeredSections();
 
 std::vector<ParamSpec> pipelineParamSpecs();
+/** The keys of a `modules:` entry (name, type, params, inputs, enabled,
+ *  every, detection). */
+const std::vector<std::string>& moduleKeys();
 std::vector<ParamSpec> datasetCommonParamSpecs();
 std::vector<ParamSpec> outputParamSpecs();
 

@@ -11,6 +11,12 @@ std::string sharedDir();
 /** sharedDir() + "/" + rel; throws DataError naming the file and pointing at
  *  scripts/download_data.sh if it does not exist. */
 std::string sharedPath(const std::string& rel);
+/** `<prefix>/share/dslam` of an installed dslam (`cmake --install`): found
+ *  from the location of the dslam_core library (`<prefix>/lib/...`), so it
+ *  works for the dslam command and for programs that link the libraries.
+ *  Empty when running from a build tree. Holds config/, the default
+ *  vocabulary and the plot scripts. */
+std::string installDataDir();
 /** Resolves `p` against `base_dir` unless absolute; expands a leading "~/". */
 std::string resolvePath(const std::string& p, const std::string& base_dir);
 bool fileExists(const std::string& p);

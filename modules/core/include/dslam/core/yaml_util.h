@@ -5,6 +5,7 @@
 #include <mrpt/containers/yaml.h>
 
 #include <functional>
+#include <ostream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,7 +43,16 @@ size_t editDistance(const std::string& a, const std::string& b);
 /** ", did you mean 'x'?" if a candidate is close, else "". */
 std::string didYouMean(const std::string& key, const std::vector<std::string>& valid);
 std::string join(const std::vector<std::string>& v, const std::string& sep = ", ");
-/** Emits a node as YAML text (flow style for short scalar sequences). */
+/** A scalar as YAML text, quoted when needed ('' for the empty string, a
+ *  double-quoted escape string for control characters, ~ for null). */
+std::string scalarOut(const node_t& n);
+/** Writes the value part of `key: value` (leading space or newline, then
+ *  nested maps and lists indented by `indent`); flow style for lists of
+ *  scalars and for empty maps and lists. */
+void emitValue(std::ostream& o, const node_t& n, int indent);
+/** Emits a document as YAML text that the YAML loader reads back to the
+ *  same tree (map keys in file order; MRPT's own printer does not quote
+ *  values such as 'a: b' or '#x' and drops empty lists). */
 std::string toYamlText(const mrpt::containers::yaml& y);
 
 /** A node of a file with its key path ("objects[2].size"), for messages. */

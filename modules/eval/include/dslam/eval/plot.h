@@ -26,10 +26,16 @@ std::vector<PlotRow> plotRows(const Trajectory& gt, const Trajectory& est, const
 /** CSV with header `t,gt_x,gt_y,gt_z,est_x,est_y,est_z,error`. */
 void writePlotCsv(const std::string& path, const std::vector<PlotRow>& rows);
 
-/** scripts/plot_trajectory.py: $DSLAM_PLOT_SCRIPT, else next to the
- *  executable (../share/dslam/), else $DSLAM_SOURCE_DIR/scripts, else the
- *  source tree baked in at build time. Empty if none exists. */
+/** A script shipped with dslam (plot_trajectory.py, plot_study.py): next to
+ *  the executable (../share/dslam/), in the installed data folder
+ *  (dslam::installDataDir()), $DSLAM_SOURCE_DIR/scripts, else the source
+ *  tree baked in at build time. Empty if none exists. */
+std::string findScript(const std::string& file_name);
+/** scripts/plot_trajectory.py: $DSLAM_PLOT_SCRIPT, else findScript(). */
 std::string plotScriptPath();
+/** Runs `args` (PATH lookup for args[0]) and waits; returns the exit status,
+ *  -1 if it could not be started or was killed. quiet: output to /dev/null. */
+int runProgram(const std::vector<std::string>& args, bool quiet = false);
 /** A Python interpreter that can `import matplotlib`: $DSLAM_PYTHON if set,
  *  else `python3` on PATH, else /usr/bin/python3. Empty if none. */
 std::string findPlotPython();

@@ -152,6 +152,17 @@ class System {
   bool shut_ = false;
 };
 
+/** Builds the System a pipeline describes: its backend (default
+ *  dslam::CeresBackend), map manager, detectors and classifier chain (file
+ *  order), for `camera`. This is what `dslam run` does before its frame loop;
+ *  programs that produce their own frames call it and then System::track().
+ *  `ctx` is passed to every plug-in's configure() (config_dir defaults to
+ *  the pipeline's folder, shared_dir to dslam::sharedDir(); seed and camera
+ *  are set from `pc` and `camera`). Plugins must be registered
+ *  (dslam::register_builtin_plugins()). */
+std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const CameraModel& camera,
+                                    PluginContext ctx = {}, bool localization_only = false);
+
 /** Options of `dslam run` that override the pipeline file. */
 struct RunOverrides {
   std::string dataset;          ///< dataset path (type auto-detected unless the file has one)
