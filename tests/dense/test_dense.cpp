@@ -212,14 +212,21 @@ TEST(DenseIntegration, KnownPlaneAtAKnownPose) {
   d.semantic = cv::Mat(60, 80, CV_8U, cv::Scalar(255));
   d.semantic(cv::Rect(0, 0, 20, 60)).setTo(1);  // a person on the left quarter of the image
   dm.addKeyFrame(f, {d});
+  Frame f2 = f;  // the same view again from the next keyframe: a voxel needs two hits
+  f2.input.index = 4;
+  dm.addKeyFrame(f2, {d});
   // camera z -> world x, camera x -> world -y, camera y -> world -z; camera at (0.12, 0.3, 1.0)
   Eigen::Matrix3d R;
   R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   const SE3 T_wc(R, Eigen::Vector3d(0.12, 0.3, 1.0));
-  dm.integrate({{3, T_wc}});
+  dm.integrate({{3, T_wc}});  // one keyframe: hit once, not occupied (occupancy_threshold 0.65, prob_hit 0.6)
   EXPECT_EQ(dm.stats().keyframes_integrated, 1u);
-  EXPECT_EQ(dm.stats().points_inserted, 60u * 60u);
-  EXPECT_EQ(dm.stats().points_masked, 60u * 20u);
+  EXPECT_EQ(dm.stats().keyframes_without_pose, 1u);
+  EXPECT_TRUE(dm.occupiedVoxels().empty());
+  dm.integrate({{3, T_wc}, {4, T_wc}});
+  EXPECT_EQ(dm.stats().keyframes_integrated, 2u);
+  EXPECT_EQ(dm.stats().points_inserted, 2u * 60u * 60u);
+  EXPECT_EQ(dm.stats().points_masked, 2u * 60u * 20u);
   std::set<std::tuple<int, int, int>> expected;
   const double res = p.resolution;
   for (int v = 0; v < 60; v++)
@@ -242,11 +249,12 @@ TEST(DenseIntegration, KnownPlaneAtAKnownPose) {
   // The person's side of the plane (world y > 0.3 + 0.5 at the image's left) stays empty.
   for (const Voxel& v : vox) EXPECT_LT(v.c.y(), 0.3 + (39.5 - 20) / 80 * 2.0 + res);
   // The same keyframe at another pose: the map follows it (re-integration).
-  dm.integrate({{3, SE3(R, Eigen::Vector3d(1.12, 0.3, 1.0))}});
+  const SE3 moved(R, Eigen::Vector3d(1.12, 0.3, 1.0));
+  dm.integrate({{3, moved}, {4, moved}});
   for (const Voxel& v : dm.occupiedVoxels()) EXPECT_NEAR(v.c.x(), 3.125, 1e-4);
   // Without a pose the keyframe is left out.
   dm.integrate({});
-  EXPECT_EQ(dm.stats().keyframes_without_pose, 1u);
+  EXPECT_EQ(dm.stats().keyframes_without_pose, 2u);
   EXPECT_TRUE(dm.occupiedVoxels().empty());
 }
 

@@ -209,6 +209,7 @@ void DenseMapper::integrate(const std::map<int, SE3>& T_wc_by_frame) {
   auto tree = std::make_unique<octomap::OcTree>(p_.resolution);
   tree->setProbHit(p_.prob_hit);
   tree->setProbMiss(p_.prob_miss);
+  tree->setOccupancyThres(p_.occupancy_threshold);
   impl_->colour.clear();
   poses_.clear();
   stats_.keyframes_integrated = stats_.keyframes_without_pose = 0;

@@ -26,11 +26,53 @@ cv::Mat stereoDepth(const cv::Mat& gray_left, const cv::Mat& gray_right, double 
   cv::Mat disp;
   sgbm->compute(gray_left, gray_right, disp);  // CV_16S, 16 x disparity, < 0 invalid
   const float fbf = static_cast<float>(bf);
+  const int w = p.refine_window;
+  cv::Mat L, R;
+  gray_left.convertTo(L, CV_16S);
+  gray_right.convertTo(R, CV_16S);
+  // SAD between the left window at (x, y) and the right one at (x - d, y).
+  auto sad = [&](int x, int y, int d) {
+    int s = 0;
+    for (int j = -w; j <= w; j++) {
+      const int16_t* a = L.ptr<int16_t>(y + j) + x;
+      const int16_t* b = R.ptr<int16_t>(y + j) + x - d;
+      for (int i = -w; i <= w; i++) s += std::abs(a[i] - b[i]);
+    }
+    return s;
+  };
   for (int y = 0; y < disp.rows; y++) {
-    const int16_t* d = disp.ptr<int16_t>(y);
+    const int16_t* d16 = disp.ptr<int16_t>(y);
     float* z = depth.ptr<float>(y);
-    for (int x = 0; x < disp.cols; x++)
-      if (d[x] >= 16) z[x] = fbf * 16.f / static_cast<float>(d[x]);  // disparity >= 1 px
+    for (int x = 0; x < disp.cols; x++) {
+      if (d16[x] < 16) continue;  // disparity < 1 px or invalid
+      float d = static_cast<float>(d16[x]) / 16.f;
+      // Refinement: SAD at the integer disparity and its neighbours, V-shaped
+      // (equiangular) fit, which does not pull towards integers as SGBM's
+      // parabola does.
+      int d0 = static_cast<int>(std::lround(d));
+      if (w > 0 && y >= w && y + w < disp.rows && x + w < disp.cols && x - d0 - 2 - w >= 0) {
+        int a = sad(x, y, d0 - 1), b = sad(x, y, d0), c = sad(x, y, d0 + 1);
+        for (int it = 0; it < 2 && (a < b || c < b); it++) {  // the SAD minimum is one step away
+          if (a < b) {
+            d0--;
+            c = b, b = a;
+            if (x - d0 - 1 - w < 0 || d0 - 1 < 1) break;
+            a = sad(x, y, d0 - 1);
+          } else {
+            d0++;
+            a = b, b = c;
+            if (x - d0 - 1 - w < 0) break;
+            c = sad(x, y, d0 + 1);
+          }
+        }
+        if (b <= a && b <= c && (a > b || c > b)) {
+          const float delta = a > c ? 0.5f * static_cast<float>(a - c) / static_cast<float>(a - b)
+                                    : 0.5f * static_cast<float>(a - c) / static_cast<float>(c - b);
+          d = static_cast<float>(d0) + delta;
+        }
+      }
+      if (d >= 1.f) z[x] = fbf / d;
+    }
   }
   return depth;
 }

@@ -40,6 +40,11 @@ std::vector<ParamSpec> DenseMapParams::specs() {
       P_double("center_fraction", d.center_fraction,
                "boxes: the object's depth is the median depth of this central part of the box", 0.05, 1),
       P_double("prob_hit", d.prob_hit, "OctoMap hit probability (occupied update)", 0.5, 1),
+      P_double("occupancy_threshold", d.occupancy_threshold,
+               "OctoMap occupancy threshold: 0.65 with prob_hit 0.6 means two keyframes must see a voxel occupied "
+               "(one more for every keyframe that saw through it); a dynamic object a detector missed in one "
+               "keyframe leaves no voxel",
+               0.5, 0.99),
       P_double("prob_miss", d.prob_miss, "OctoMap miss probability (free-space update)", 0, 0.5),
       P_int("num_disparities", d.num_disparities,
             "stereo: SGBM disparity range, a multiple of 16 (0 = enough for stereo_min_depth: bf / stereo_min_depth, "
@@ -50,6 +55,10 @@ std::vector<ParamSpec> DenseMapParams::specs() {
                100),
       P_int("block_size", d.block_size, "stereo: SGBM block size (odd)", 1, 31),
       P_int("uniqueness", d.uniqueness, "stereo: SGBM uniqueness ratio (%)", 0, 100),
+      P_int("refine_window", d.refine_window,
+            "stereo: half window (px) of the sub-pixel refinement of each SGBM disparity (SAD at the disparity and "
+            "its neighbours, V-shaped fit; 0 = keep SGBM's parabola, which pulls towards whole pixels)",
+            0, 15),
       P_int("view_size", d.view_size, "longest side of the top and side views (px)", 100, 8000),
       P_double("view_clip", d.view_clip,
                "top view: voxels higher than the highest camera plus this are left out (ceilings) (m)", -100, 100),
@@ -81,6 +90,7 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   d.center_fraction = p.getDouble("center_fraction");
   d.prob_hit = p.getDouble("prob_hit");
   d.prob_miss = p.getDouble("prob_miss");
+  d.occupancy_threshold = p.getDouble("occupancy_threshold");
   d.num_disparities = static_cast<int>(p.getInt("num_disparities"));
   if (d.num_disparities % 16 != 0)
     throw ConfigError(p.location().str() + ": dense_map.num_disparities: " + std::to_string(d.num_disparities) +
@@ -90,6 +100,7 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   if (d.block_size % 2 == 0)
     throw ConfigError(p.location().str() + ": dense_map.block_size: " + std::to_string(d.block_size) + " is not odd");
   d.uniqueness = static_cast<int>(p.getInt("uniqueness"));
+  d.refine_window = static_cast<int>(p.getInt("refine_window"));
   d.view_size = static_cast<int>(p.getInt("view_size"));
   d.view_clip = p.getDouble("view_clip");
   d.side_half_width = p.getDouble("side_half_width");

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <random>
+
+#include <Eigen/Eigenvalues>
 
 #include <opencv2/imgproc.hpp>
 
@@ -19,12 +22,51 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+/** The up axis refined to the normal of the largest plane within 25 degrees
+ *  of the cameras' mean up (floor, ceiling, table tops: horizontal), found by
+ *  RANSAC and fitted by least squares; the cameras' up when there is none.
+ *  (A camera pitched down tilts its up axis; the floor does not.) */
+Eigen::Vector3d horizontalPlaneUp(const std::vector<Voxel>& vox, const Eigen::Vector3d& up0, double res) {
+  if (vox.size() < 100) return up0;
+  const size_t stride = std::max<size_t>(1, vox.size() / 5000);
+  std::vector<Eigen::Vector3d> pts;
+  for (size_t i = 0; i < vox.size(); i += stride) pts.push_back(vox[i].c);
+  std::mt19937 rng(1);
+  std::uniform_int_distribution<size_t> pick(0, pts.size() - 1);
+  const double cos_max = std::cos(25.0 * M_PI / 180.0);
+  size_t best = 0;
+  Eigen::Vector3d best_n = up0, best_a = Eigen::Vector3d::Zero();
+  for (int it = 0; it < 300; it++) {
+    const Eigen::Vector3d a = pts[pick(rng)], b = pts[pick(rng)], c = pts[pick(rng)];
+    Eigen::Vector3d n = (b - a).cross(c - a);
+    if (n.norm() < 1e-9) continue;
+    n.normalize();
+    if (n.dot(up0) < 0) n = -n;
+    if (n.dot(up0) < cos_max) continue;
+    size_t in = 0;
+    for (const auto& q : pts) in += std::abs(n.dot(q - a)) <= res;
+    if (in > best) best = in, best_n = n, best_a = a;
+  }
+  if (best < 30) return up0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> in;
+  for (const auto& q : pts)
+    if (std::abs(best_n.dot(q - best_a)) <= res) in.push_back(q), mean += q;
+  mean /= static_cast<double>(in.size());
+  Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+  for (const auto& q : in) C += (q - mean) * (q - mean).transpose();
+  Eigen::Vector3d n = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(C).eigenvectors().col(0);
+  if (n.dot(up0) < 0) n = -n;
+  return n.dot(up0) >= cos_max ? n : best_n;
+}
+
 }  // namespace
 
 cv::Mat renderView(const std::vector<Voxel>& voxels, double resolution, const std::vector<SE3>& camera_T_wc,
                    const std::vector<SE3>& keyframe_T_wc, bool top, const DenseMapParams& p, const std::string& title) {
-  // Axes: up = mean camera up (-y of the camera), forward = the first camera's
-  // viewing direction made horizontal, right = forward x up.
+  // Axes: up = the normal of the dominant horizontal plane (start: the mean
+  // camera up, -y of the camera), forward = the first camera's viewing
+  // direction made horizontal, right = forward x up.
   const std::vector<SE3>& ref = keyframe_T_wc.empty() ? camera_T_wc : keyframe_T_wc;
   Eigen::Vector3d up(0, -1, 0), fwd(0, 0, 1);
   if (!ref.empty()) {
@@ -33,6 +75,7 @@ cv::Mat renderView(const std::vector<Voxel>& voxels, double resolution, const st
     up.normalize();
     fwd = ref.front().rotation() * Eigen::Vector3d(0, 0, 1);
   }
+  up = horizontalPlaneUp(voxels, up, resolution);
   fwd -= up * fwd.dot(up);
   if (fwd.norm() < 1e-6) fwd = up.unitOrthogonal();
   fwd.normalize();

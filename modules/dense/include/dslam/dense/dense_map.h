@@ -57,12 +57,14 @@ struct DenseMapParams {
   double depth_margin = 0.5;         ///< boxes: pixels within this depth (m) of the object's depth belong to it
   double center_fraction = 0.3;      ///< boxes: object depth = median depth of this central part of the box
   // OctoMap
-  double prob_hit = 0.7, prob_miss = 0.4;
+  double prob_hit = 0.6, prob_miss = 0.4;
+  double occupancy_threshold = 0.65;  ///< with prob_hit 0.6: a voxel needs two hits (keyframes) to be occupied
   // Stereo (SGBM on the rectified pair)
   int num_disparities = 0;  ///< multiple of 16; 0 = from stereo_min_depth (bf / stereo_min_depth, at most width / 4)
   double stereo_min_depth = 1.0;  ///< m: nearest depth the automatic disparity range covers
   int block_size = 5;
   int uniqueness = 10;
+  int refine_window = 0;  ///< half window of a sub-pixel SAD refinement (0 = SGBM's own)
   // Pictures
   int view_size = 900;           ///< px, longest side of the top / side views
   double view_clip = 0.6;        ///< top view: voxels higher than the highest camera + this are left out (ceiling)
