@@ -47,10 +47,10 @@ TEST(DenseE2E, StdynWalkingGhostRateWithAndWithoutTheMask) {
   std::cout << "walking_xyz 150 frames 320x240, stdyn_slam, 5 cm voxels:\n  masked:   " << dense::toJson(with)
             << "\n  unmasked: " << dense::toJson(without) << "\n  pictures: " << out << "/masked/dense_top.png\n";
   EXPECT_EQ(with_sum.tracked, with_sum.frames);
-  EXPECT_GT(with.occupied, 3000u);
+  EXPECT_GT(with.occupied, 2000u);
   EXPECT_LE(with.ghost_rate, 0.01);
   EXPECT_GE(without.ghost_rate, 10 * with.ghost_rate);
-  EXPECT_GE(without.ghost, 100u);
+  EXPECT_GE(without.ghost, 50u);  // 149 measured: the walkers of the first 5 s
   EXPECT_LE(with.alignment_rmse, 0.05);
   // Pictures: readable, of a sensible size, not blank.
   for (const char* name : {"dense_top.png", "dense_side.png"}) {
