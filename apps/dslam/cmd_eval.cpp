@@ -11,6 +11,8 @@
 #include "dslam/eval/plot.h"
 #include "dslam/trajectory/io.h"
 
+void setupEvalDense(CLI::App& eval);
+
 namespace {
 
 using namespace dslam;
@@ -142,8 +144,10 @@ void setup(CLI::App& sub) {
       ->capture_default_str()
       ->check(CLI::IsMember({"frames", "s", "m"}));
   rpe->callback([] { runRpe(rpe_o, delta, unit); });
+
+  setupEvalDense(sub);  // cmd_eval_dense.cpp
 }
 
 }  // namespace
 
-DSLAM_COMMAND(eval, "Evaluate a trajectory against ground truth (ATE, RPE)", setup);
+DSLAM_COMMAND(eval, "Evaluate a trajectory (ATE, RPE) or a dense map against ground truth", setup);

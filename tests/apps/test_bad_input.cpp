@@ -199,6 +199,16 @@ std::vector<Case> cases() {
                  return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
                },
                0, {"frame 3", "has no valid depth", "tracked without depth"}, "[warn]"});
+  c.push_back({"pipeline with `outputs.dense_map: true`", "RGB-D camera, but the dataset has no depth images",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 fs::remove(s + "/depth.txt");
+                 fs::remove(s + "/associations.txt");
+                 const std::string p = pipeline(d, readFile(source(kBaseline)) + "camera: $include{" + s +
+                                                       "/camera.yaml}\noutputs: {dense_map: true}\n");
+                 return "run " + q(p) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"outputs.dense_map", "needs depth images (RGB-D) or a stereo pair", "frame 0"}});
   c.push_back({"KITTI calib.txt", "no matrix for the right camera",
                [](const std::string& d) {
                  const std::string k = d + "/kitti";

@@ -87,6 +87,9 @@ std::vector<ParamSpec> outputParamSpecs() {
       P_string("resolved_config", "config.resolved.yaml", "fully resolved configuration copy"),
       P_string("events", "events.jsonl", "loop/merge/lost events, one JSON object per line ('' = none)"),
       P_string("atlas", "", "save the atlas to this file at the end ('' = do not save)"),
+      P_bool("dense_map", false,
+             "dense OctoMap without dynamic objects: map.bt, dense.ply, dense_top.png, dense_side.png, dense.json "
+             "(parameters: the dense_map section; docs/dense_map.md)"),
   };
 }
 

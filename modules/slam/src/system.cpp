@@ -11,6 +11,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/worker.h"
+#include "dslam/dense/dense_map.h"
 #include "dslam/map/atlas.h"
 #include "dslam/map/map.h"
 #include "dslam/place_recognition/vocabulary.h"
@@ -34,6 +35,7 @@ void registerSlamSections() {
                           "of the atlas when tracking is lost.");
   config::registerSection("loop_closing", &LoopClosingParams::specs,
                           "Loop closing and map merging (ORB-SLAM2/3 defaults, SE(3) for stereo / RGB-D).");
+  dense::registerDenseSection();
 }
 
 std::vector<ParamSpec> PlaceRecognitionParams::specs() {
@@ -456,7 +458,7 @@ FrameResult System::track(const SensorFrame& in) {
 
   const bool keep_prev = !classifiers_.empty();
   std::optional<Frame> copy;
-  if (keep_prev) copy = f;  // classifiers look at the previous frame (images and keypoints)
+  if (keep_prev || kf_observer_) copy = f;  // classifiers look at the previous frame (images and keypoints)
 
   {
     auto t = timer_.scope("track", fi);
@@ -469,6 +471,7 @@ FrameResult System::track(const SensorFrame& in) {
   }
   res.ms_total = (nowSeconds() - t0) * 1e3;
   timer_.add("frame", fi, res.ms_total);
+  if (kf_observer_ && res.track.keyframe) kf_observer_(*copy, dets);
 
   if (res.track.state == TrackState::Ok && !res.track.keyframe) checkPlaceRecognition();
   if (mode_ == config::Mode::Sequential) {

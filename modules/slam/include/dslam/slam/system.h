@@ -94,6 +94,11 @@ class System {
   void loadMaps(const std::string& path);
   /** Receives every event as one JSON object (loop, merge, new map...). */
   void setEventSink(std::function<void(const std::string&)> sink) { on_event_ = std::move(sink); }
+  /** Receives, in the tracking thread, every frame that became a keyframe
+   *  (images, keypoints, classifier labels) with its detections: the dense
+   *  map (dslam/dense/dense_map.h) keeps what it needs. Must return quickly. */
+  using KeyFrameObserver = std::function<void(const Frame&, const std::vector<Detections>&)>;
+  void setKeyFrameObserver(KeyFrameObserver fn) { kf_observer_ = std::move(fn); }
   const LoopCloser* loopCloser() const { return loop_.get(); }
   /** Waits for local mapping to finish its queue and stops the threads. */
   void shutdown();
@@ -132,6 +137,7 @@ class System {
   std::shared_ptr<KeyFrameDatabase> kfdb_;
   std::unique_ptr<LoopCloser> loop_;
   std::function<void(const std::string&)> on_event_;
+  KeyFrameObserver kf_observer_;
   CameraIntrinsics intrinsics_;
   std::shared_ptr<const ScaleLevels> scale_;
   int lost_frames_ = 0;
