@@ -84,6 +84,10 @@ std::vector<ParamSpec> outputParamSpecs() {
       P_string("timing_csv", "timing.csv", "per-frame per-stage timing CSV ('' = none)"),
       P_string("frames_csv", "frames.csv", "per-frame tracking state, keypoints, usable (non-dynamic) keypoints, tracked map points, ORB feature count ('' = none)"),
       P_string("map", "map.ply", "map points as PLY ('' = none)"),
+      P_string("objects", "objects.json",
+               "semantic object map: MapObjects with class, centroid, 3D box, belief, active ('' = none; "
+               "docs/changing.md)"),
+      P_string("objects_ply", "objects.ply", "3D boxes of the current map's objects as PLY faces ('' = none)"),
       P_string("resolved_config", "config.resolved.yaml", "fully resolved configuration copy"),
       P_string("events", "events.jsonl", "loop/merge/lost events, one JSON object per line ('' = none)"),
       P_string("atlas", "", "save the atlas to this file at the end ('' = do not save)"),

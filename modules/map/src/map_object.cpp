@@ -54,7 +54,8 @@ namespace {
 bool objectClass(int c, const LtdaParams& p) {
   if (c < 0) return false;
   if (std::find(p.ignore_classes.begin(), p.ignore_classes.end(), c) != p.ignore_classes.end()) return false;
-  return p.classes.empty() || std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
+  if (p.classes.empty()) return c <= kLastCocoThing;  // stuff (walls, floor) makes no objects
+  return std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
 }
 
 /** Single-linkage clusters of `idx` (positions into pts) with radius r. */
@@ -121,16 +122,19 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     out.push_back(std::move(cand));
   };
   for (const auto& [key, idx] : groups) {
-    if (key.second >= 0) {
-      emit(key.first, key.second, idx);
-      continue;
-    }
     std::vector<Eigen::Vector3d> xs;
     for (size_t i : idx) xs.push_back(kf.points[i]->pos);
-    for (const auto& cl : clusters(xs, p.cluster_m)) {
+    auto cls = clusters(xs, p.cluster_m);
+    if (key.second >= 0 && cls.size() > 1) {  // one instance: its largest cluster (stray points left out)
+      size_t best = 0;
+      for (size_t k = 1; k < cls.size(); k++)
+        if (cls[k].size() > cls[best].size()) best = k;
+      cls = {cls[best]};
+    }
+    for (const auto& cl : cls) {
       std::vector<size_t> sub;
       for (size_t k : cl) sub.push_back(idx[k]);
-      emit(key.first, -1, sub);
+      emit(key.first, key.second, sub);
     }
   }
   return out;

@@ -330,7 +330,7 @@ void LocalMapper::localBundleAdjustment() {
     }
     for (KeyFrame* k : local)
       for (const auto& mp : k->points)
-        if (mp && !mp->bad && mp->ba_local_for_kf != kf->id) {
+        if (mp && !mp->bad && mp->active && mp->ba_local_for_kf != kf->id) {  // inactive: persistence filters
           mp->ba_local_for_kf = kf->id;
           pts.push_back(mp);
         }

@@ -428,6 +428,7 @@ Trajectory writeOutputs(System& sys, const config::PipelineConfig& pc, const Run
   if (const std::string kp = outPath(pc, out, "keyframe_trajectory"); !kp.empty())
     traj::writeTum(kp, kft, "dslam keyframe trajectory (T_wc), pipeline " + pc.name);
   if (const std::string mp = outPath(pc, out, "map"); !mp.empty()) sys.writePly(mp);
+  sys.writeObjects(outPath(pc, out, "objects"), outPath(pc, out, "objects_ply"));
   if (const std::string tc = outPath(pc, out, "timing_csv"); !tc.empty()) {
     sys.timer().writeCsv(tc);
     sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());
@@ -458,8 +459,18 @@ std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const Came
     backend = create<Backend>("dslam::CeresBackend");
     backend->configure(Params::resolve(backend->paramSpecs(), ""), base);
   }
-  for (const auto* m : pc.modulesOf("MapManager"))
-    if (!maps) maps = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
+  // Map managers chain in the order listed: a filter (persistence filters)
+  // wraps the one before it, the first filter without one wraps an Atlas.
+  for (const auto* m : pc.modulesOf("MapManager")) {
+    auto mm = std::dynamic_pointer_cast<MapManager>(makeModule(*m, base));
+    if (mm->filtersAnother()) {
+      if (maps) mm->setInner(maps);
+    } else if (maps) {
+      throw ConfigError("modules: '" + m->name + "' (" + m->type + ") is a map manager that keeps its own maps; only "
+                        "filters (persistence filters) may follow another map manager");
+    }
+    maps = mm;
+  }
 
   auto sys = std::make_unique<System>(cam, sp, backend, pc.mode, maps);
   const auto detectors = pc.modulesOf("Detector");

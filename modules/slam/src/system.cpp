@@ -8,7 +8,9 @@
 #include <set>
 
 #include "dslam/core/atomic_file.h"
+#include "dslam/core/coco.h"
 #include "dslam/core/error.h"
+#include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
 #include "dslam/core/worker.h"
 #include "dslam/dense/dense_map.h"
@@ -195,11 +197,17 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
     loop_->setEventCallback([this](const LoopEvent& e) {
       if (on_event_) on_event_(e.json());
     });
-    LoopCloser* lc = loop_.get();
-    mapper_->setKeyFrameCallback([lc](const KeyFramePtr& kf) { lc->insertKeyFrame(kf); });
   } else if (p_.loop.enabled) {
     DSLAM_LOG(Info, "loop closing needs place_recognition.enabled: disabled");
   }
+  // A processed keyframe goes to the map manager (persistence filters,
+  // objects), then to loop closing.
+  LoopCloser* lc = loop_.get();
+  MapManager* mm = maps_.get();
+  mapper_->setKeyFrameCallback([lc, mm](const KeyFramePtr& kf) {
+    mm->onKeyFrame(kf);
+    if (lc) lc->insertKeyFrame(kf);
+  });
   if (mode_ == config::Mode::Parallel) {
     mapper_->start();
     if (loop_) loop_->start();
@@ -478,6 +486,7 @@ FrameResult System::track(const SensorFrame& in) {
     mapper_->processAll();
     if (loop_) loop_->processAll();
   }
+  if (res.track.state == TrackState::Lost && lost_frames_ == 0) maps_->onTrackingLost(maps_->currentMap());
   if (res.track.state == TrackState::Lost && !p_.tracker.localization_only) {
     lost_frames_++;
     if (lost_frames_ >= p_.place.new_map_after_lost && maps_->currentMap()->numKeyFrames() > 0) switchToNewMap(fi);
@@ -558,6 +567,67 @@ void System::writePly(const std::string& path) const {
                   static_cast<int>(p->class_id));
     f << buf;
   }
+  out.commit();
+}
+
+namespace {
+constexpr size_t kMinObjectPoints = 5;  ///< objects.json leaves out objects whose points were culled below this
+}  // namespace
+
+void System::writeObjects(const std::string& json_path, const std::string& ply_path) const {
+  const auto cur = map();
+  nlohmann::ordered_json objs = nlohmann::ordered_json::array();
+  std::vector<MapObjectPtr> boxes;
+  for (const auto& m : maps_->maps()) {
+    std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
+    for (const auto& [id, o] : m->objects()) {
+      if (o->refresh() < kMinObjectPoints) continue;  // its points were culled
+      auto v3 = [](const Eigen::Vector3d& v) { return nlohmann::ordered_json::array({v.x(), v.y(), v.z()}); };
+      objs.push_back({{"id", o->id},
+                      {"map", m->id},
+                      {"class_id", o->class_id},
+                      {"class", coco::name(o->class_id)},
+                      {"centroid", v3(o->centroid)},
+                      {"box_min", v3(o->box_min)},
+                      {"box_max", v3(o->box_max)},
+                      {"points", o->numPoints()},
+                      {"belief", o->belief},
+                      {"active", o->active || o->dormant},  // in the map (dormant: not used to localise until seen again)
+                      {"dormant", o->dormant},
+                      {"first_seen_kf", o->first_seen_kf},
+                      {"last_seen_kf", o->last_seen_kf},
+                      {"first_seen_t", o->first_seen_t},
+                      {"last_seen_t", o->last_seen_t},
+                      {"sightings", o->sightings}});
+      if (m == cur) boxes.push_back(o);
+    }
+  }
+  if (!json_path.empty()) {
+    nlohmann::ordered_json j = {{"format", "dslam-objects"}, {"version", 1}, {"map", cur->id}, {"objects", objs}};
+    AtomicOfstream out(json_path);
+    out.stream() << layoutJson(j, 2) << "\n";
+    out.commit();
+  }
+  if (ply_path.empty()) return;
+  AtomicOfstream out(ply_path);
+  std::ofstream& f = out.stream();
+  f << "ply\nformat ascii 1.0\ncomment dslam object boxes of map " << cur->id << " (green active, red inactive)\n"
+    << "element vertex " << boxes.size() * 8 << "\nproperty float x\nproperty float y\nproperty float z\n"
+    << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    << "element face " << boxes.size() * 6 << "\nproperty list uchar int vertex_indices\nend_header\n";
+  char buf[160];
+  for (const auto& o : boxes) {
+    const int r = o->active ? 40 : 220, g = o->active ? 200 : 40;
+    for (int k = 0; k < 8; k++) {
+      std::snprintf(buf, sizeof(buf), "%.5f %.5f %.5f %d %d 40\n", k & 1 ? o->box_max.x() : o->box_min.x(),
+                    k & 2 ? o->box_max.y() : o->box_min.y(), k & 4 ? o->box_max.z() : o->box_min.z(), r, g);
+      f << buf;
+    }
+  }
+  static const int kFaces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (size_t b = 0; b < boxes.size(); b++)
+    for (const auto& q : kFaces)
+      f << "4 " << b * 8 + q[0] << " " << b * 8 + q[1] << " " << b * 8 + q[2] << " " << b * 8 + q[3] << "\n";
   out.commit();
 }
 

@@ -484,6 +484,10 @@ struct Renderer::Impl {
       return T;
     };
     view(pose(t), scene.primitivesAt(frame, t), color, z, code);
+    if (s.dark(frame)) {  // lights off: the depth camera still measures, the colour camera sees nothing
+      color.setTo(0);
+      return;
+    }
     const int n = s.noise.blur_samples;
     if (s.noise.enabled && s.noise.motion_blur > 0 && n > 1) {
       cv::Mat acc = color.clone(), c2, z2, l2;

@@ -347,7 +347,7 @@ Scenario parseLoaded(const config::LoadedYaml& ly, const ScenarioOverrides& ov) 
   const N root{&ly.root->node(), ""};
   if (!root.n->isMap()) r.fail(root, "a scenario file must be a YAML map");
   r.checkKeys(root, {"name", "description", "frames", "rate", "start_time", "seed", "resolution", "camera", "noise",
-                     "limits", "room", "objects", "people", "events"});
+                     "limits", "room", "objects", "people", "events", "darkness"});
   Scenario s;
   s.file = ly.file;
   s.name = r.str(root, "name", fs::path(ly.file).stem().string());
@@ -416,6 +416,16 @@ Scenario parseLoaded(const config::LoadedYaml& ly, const ScenarioOverrides& ov) 
       s.people.push_back(p);
     }
   }
+  if (auto dl = r.child(root, "darkness")) {
+    for (auto& d : r.list(*dl)) {
+      auto l = r.list(d);
+      if (l.size() != 2) r.fail(d, "expected [first, last] (frames with the lights off)");
+      const int a = static_cast<int>(r.integer(l[0])), b = static_cast<int>(r.integer(l[1]));
+      if (b < a || a < 0 || b >= s.frames)
+        r.fail(d, "darkness frames must satisfy 0 <= first <= last < " + std::to_string(s.frames));
+      s.darkness.push_back({a, b});
+    }
+  }
   if (auto el = r.child(root, "events")) {
     for (auto& e : r.list(*el)) {
       EventSpec ev;
@@ -456,6 +466,10 @@ void applyOverrides(Scenario& s, const ScenarioOverrides& ov) {
     s.events.erase(std::remove_if(s.events.begin(), s.events.end(), [&](const EventSpec& e) { return e.first >= s.frames; }),
                    s.events.end());
     for (auto& e : s.events) e.last = std::min(e.last, s.frames - 1);
+    s.darkness.erase(std::remove_if(s.darkness.begin(), s.darkness.end(),
+                                    [&](const std::pair<int, int>& d) { return d.first >= s.frames; }),
+                     s.darkness.end());
+    for (auto& d : s.darkness) d.second = std::min(d.second, s.frames - 1);
   }
   if (ov.width > 0 && ov.height > 0 && (ov.width != s.width || ov.height != s.height)) {
     if (ov.width < 16 || ov.height < 16 || ov.width > 4096 || ov.height > 4096)

@@ -209,12 +209,15 @@ void EkfObjectTracker::classify(Frame& frame, const Detections& det, const Class
     for (size_t i = 0; i < frame.size(); i++) {
       if (!cls::inBox(frame.keypoints[i].pt, bb.box)) continue;
       KeypointMeta& m = frame.meta[i];
+      // Depth repopulation found it behind the object: it keeps no class
+      // (the object map must not take the background into the object).
+      const bool background = m.reason == KpReason::BoxBackground;
       if (dyn)
         cls::raise(m, KpLabel::Dynamic, reason);
       else if (movable_)
         cls::raise(m, KpLabel::Movable, KpReason::OnObject);
       m.object_id = id;
-      if (m.class_id < 0) m.class_id = static_cast<int16_t>(bb.class_id);
+      if (m.class_id < 0 && !background) m.class_id = static_cast<int16_t>(bb.class_id);
     }
   }
 }

@@ -1,10 +1,15 @@
-// Map managers. dslam::Atlas lives in modules/map (the System uses it by
-// default); this family registers it as a plugin so pipelines can name it.
+// Map managers: dslam::Atlas (modules/map; the System's default) and the
+// persistence filters that wrap it (changing environments, issue 12).
 #include "dslam/core/registry.h"
 #include "dslam/map/atlas.h"
+#include "dslam/plugins/map_managers/persistence_filters.h"
 
 namespace dslam {
 
-void register_map_managers_plugins() { registerPlugin<Atlas>(); }
+void register_map_managers_plugins() {
+  registerPlugin<Atlas>();
+  registerPlugin<ObjectPersistenceFilter>();
+  registerPlugin<PointPersistenceFilter>();
+}
 
 }  // namespace dslam

@@ -39,6 +39,10 @@ class MapManager : public Plugin {
    *  covisibility and objects are up to date), in the mapping thread;
    *  persistence bookkeeping. Lock the keyframe's map to change it. */
   virtual void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) { (void)kf; }
+  /** Called once when tracking is lost in map `m` (the tracking thread;
+   *  lock the map to change it): what was seen before may have changed by
+   *  the time the camera relocalises. */
+  virtual void onTrackingLost(const std::shared_ptr<Map>& m) { (void)m; }
   /** Map managers that filter another one (persistence filters) keep its
    *  maps and add their own decisions; the pipeline gives each filter the
    *  map manager listed before it (or a dslam::Atlas). */

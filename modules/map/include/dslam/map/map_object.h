@@ -40,6 +40,7 @@ struct MapObject {
   cv::Rect2f first_box, current_box;          ///< image boxes of the first and latest sighting
   double belief = 0.5;                        ///< P(still there)
   bool active = true;                         ///< its points take part in tracking, BA, loops
+  bool dormant = false;                       ///< inactive until seen again, belief kept (persistence filter)
   int64_t first_seen_kf = -1, last_seen_kf = -1;
   double first_seen_t = 0, last_seen_t = 0;
   int sightings = 0;                          ///< keyframes that saw it
@@ -68,11 +69,14 @@ struct ObjectCandidate {
   cv::Rect2f box;      ///< image box of its keypoints
 };
 
+/** Highest COCO id of a "thing" (1-91); panoptic stuff classes are 92+. */
+constexpr int kLastCocoThing = 91;
+
 struct LtdaParams {
   double threshold_m = 0.25;      ///< same class and centroids closer than this: the same object
   double cluster_m = 0.3;         ///< points without an instance id: one candidate per cluster of this radius
   int min_points = 5;             ///< smaller candidates are ignored
-  std::vector<int> classes;       ///< classes that make objects ([] = every labelled class except person)
+  std::vector<int> classes;       ///< classes that make objects ([] = every COCO thing, ids 1-91, except ignore_classes)
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
 };
 

@@ -109,6 +109,11 @@ class System {
   Trajectory keyframeTrajectory() const;
   /** Map points as ASCII PLY (x y z, RGB by label: static grey, movable blue, dynamic red). */
   void writePly(const std::string& path) const;
+  /** The semantic object map (MapObjects of every map, issue 12): JSON with
+   *  class, centroid, 3D box, belief, active, points, first/last seen, and
+   *  the boxes of the current map's objects as PLY faces (green active, red
+   *  inactive). An empty path skips that file. */
+  void writeObjects(const std::string& json_path, const std::string& ply_path) const;
 
   StageTimer& timer() { return timer_; }
   const CameraModel& camera() const { return frontend_->camera(); }

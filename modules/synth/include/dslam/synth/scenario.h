@@ -158,7 +158,15 @@ struct Scenario {
   std::vector<ObjectSpec> objects;
   std::vector<PersonSpec> people;
   std::vector<EventSpec> events;
+  /** Frame ranges [first, last] with the lights off: black colour images
+   *  (a depth camera still measures; labels are still written). */
+  std::vector<std::pair<int, int>> darkness;
 
+  bool dark(int frame) const {
+    for (const auto& [a, b] : darkness)
+      if (frame >= a && frame <= b) return true;
+    return false;
+  }
   double time(int frame) const { return frame / rate; }  ///< seconds since frame 0
   double stamp(int frame) const { return start_time + time(frame); }
   const ObjectSpec* findObject(const std::string& n) const;

@@ -1,0 +1,103 @@
+#pragma once
+/** \file persistence_filters.h
+ *  Persistence filters as map managers (issue 12, docs/changing.md). Both
+ *  wrap the map manager listed before them (an Atlas by default) and decide
+ *  which map points are active: inactive points take no part in tracking,
+ *  local BA, relocalisation, loop detection or map merging.
+ *
+ *  dslam::ObjectPersistenceFilter (Changing-SLAM, sections 4.5-4.8): on each
+ *  keyframe, object candidates from its labelled points, long-term data
+ *  association into MapObjects, a Bayes belief per object (raised by
+ *  sightings after a long absence, lowered by negative evidence: its place
+ *  in view, not occluded, nothing of its class there); below
+ *  `belief_threshold` its points are inactive. Beyond the paper: objects
+ *  not confirmed for `dormant_after_s` seconds, or when tracking is lost,
+ *  are dormant (inactive, belief kept) until a keyframe sees them again, so
+ *  an object moved while out of view cannot pull relocalisation, loop
+ *  closure or map merging to its old place.
+ *
+ *  dslam::PointPersistenceFilter (Rosen et al. 2016, as Hashemifar and Dantu
+ *  put it into ORB-SLAM): a feature persistence filter per map point of no
+ *  object; a keyframe that should see a point (projects inside the image,
+ *  in range, not occluded by closer keypoints) and does not is a miss; below
+ *  `belief_threshold` the point is inactive; a descriptor match in a later
+ *  keyframe re-activates it. */
+#include <cstdint>
+#include <unordered_map>
+
+#include "dslam/map/filtering_map_manager.h"
+#include "dslam/map/map_object.h"
+#include "dslam/map/persistence.h"
+
+namespace dslam {
+
+/** What a persistence filter did (summary.json, tests). */
+struct PersistenceStats {
+  int64_t keyframes = 0;
+  int64_t created = 0;      ///< objects created (object filter)
+  int64_t sightings = 0;    ///< belief raised (long-term sightings; points: seen)
+  int64_t misses = 0;       ///< negative evidence applied
+  int64_t deactivated = 0;  ///< objects / points put below the threshold
+  int64_t reactivated = 0;  ///< brought back above it
+  int64_t dormant = 0;      ///< objects made dormant (not confirmed for long, tracking lost)
+  int64_t woken = 0;        ///< dormant objects confirmed again
+};
+
+class ObjectPersistenceFilter : public FilteringMapManager {
+  DEFINE_MRPT_OBJECT(ObjectPersistenceFilter, dslam)
+ public:
+  std::string description() const override;
+  std::vector<ParamSpec> paramSpecs() const override;
+  void configure(const Params& p, const PluginContext& ctx) override;
+
+  bool isActive(const MapPoint& p) const override { return p.active && inner().isActive(p); }
+  void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) override;
+  void onTrackingLost(const std::shared_ptr<Map>& m) override;
+
+  const PersistenceStats& stats() const { return stats_; }
+  const LtdaParams& ltdaParams() const { return ltda_; }
+
+ private:
+  /** Negative evidence for `o` from keyframe `kf` (not seen in it). */
+  bool placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const;
+  void setDormant(MapObject& o);
+
+  LtdaParams ltda_;
+  ObjectBeliefParams belief_;
+  double initial_belief_ = 0.5, belief_threshold_ = 0.2;
+  int long_term_keyframes_ = 5;
+  double long_term_s_ = 2.0;
+  /** Not seen in the last long_term_keyframes keyframes or for long_term_s seconds. */
+  bool longTerm(const KeyFrame& kf, int64_t last_kf, double last_t) const;
+  double dormant_after_s_ = 5.0;
+  bool dormant_on_lost_ = true;
+  double max_range_ = 6.0, occlusion_margin_ = 0.3, min_free_fraction_ = 0.6;
+  int min_place_keypoints_ = 8, min_support_points_ = 3;
+  PersistenceStats stats_;
+};
+
+class PointPersistenceFilter : public FilteringMapManager {
+  DEFINE_MRPT_OBJECT(PointPersistenceFilter, dslam)
+ public:
+  std::string description() const override;
+  std::vector<ParamSpec> paramSpecs() const override;
+  void configure(const Params& p, const PluginContext& ctx) override;
+
+  bool isActive(const MapPoint& p) const override { return p.active && inner().isActive(p); }
+  void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) override;
+
+  const PersistenceStats& stats() const { return stats_; }
+  /** Belief of a point at time t (1 if the filter has no record of it). */
+  double belief(int64_t point_id, double t) const;
+
+ private:
+  FeaturePersistenceParams fp_;
+  double belief_threshold_ = 0.3;
+  double max_range_ = 6.0, occlusion_margin_ = 0.2, match_radius_px_ = 8.0;
+  int max_descriptor_distance_ = 50;
+  bool object_points_ = false;  ///< also filter points of MapObjects (default: those are the object filter's)
+  std::unordered_map<int64_t, FeaturePersistence> filters_;
+  PersistenceStats stats_;
+};
+
+}  // namespace dslam

@@ -1,0 +1,314 @@
+#include "dslam/plugins/map_managers/persistence_filters.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <set>
+
+#include "dslam/core/descriptor.h"
+#include "dslam/map/keyframe.h"
+#include "dslam/map/map.h"
+
+IMPLEMENTS_MRPT_OBJECT(ObjectPersistenceFilter, MapManager, dslam)
+IMPLEMENTS_MRPT_OBJECT(PointPersistenceFilter, MapManager, dslam)
+
+namespace dslam {
+
+namespace {
+
+/** Pixel of world point `Xw` in keyframe `kf` and its depth; false when it
+ *  is behind the camera, nearer than 0.1 m or outside the image. */
+bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv, double& z) {
+  const Eigen::Vector3d Xc = kf.T_cw() * Xw;
+  z = Xc.z();
+  if (z < 0.1) return false;
+  uv.x = static_cast<float>(kf.cam.fx * Xc.x() / z + kf.cam.cx);
+  uv.y = static_cast<float>(kf.cam.fy * Xc.y() / z + kf.cam.cy);
+  return kf.cam.bounds.contains(uv.x, uv.y);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// ObjectPersistenceFilter
+
+std::string ObjectPersistenceFilter::description() const {
+  return "Changing-SLAM object persistence filter: MapObjects by long-term data association, a Bayes belief per "
+         "object (sightings, negative evidence); objects below belief_threshold, and dormant ones, have inactive points";
+}
+
+std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
+  return {
+      P_double("ltda_threshold", 0.25, "same class and centroids closer than this (m): the same object (LTDA)", 0, 100),
+      P_double("cluster_radius", 0.3, "points of one class without an instance id: one candidate per cluster (m)", 0.01,
+               100),
+      P_int("min_points", 5, "smaller object candidates are ignored", 1, 100000),
+      P_list("classes", ParamType::IntList, "[]", "COCO ids that make objects ([] = every COCO thing, ids 1-91)"),
+      P_list("ignore_classes", ParamType::IntList, "[1]", "COCO ids that never make objects (people are dynamic)"),
+      P_int("long_term_keyframes", 5,
+            "the belief changes only for objects not seen in the last N keyframes (long-term evidence)", 0, 1000000),
+      P_double("long_term_s", 2.0,
+               "... or not seen for this long (s): a camera that comes back to a known view makes few keyframes",
+               0, 1e9),
+      P_double("initial_belief", 0.5, "belief of a new object (Changing-SLAM: 0.5)", 0.01, 0.99),
+      P_double("belief_threshold", 0.2, "objects below this belief have inactive points", 0, 1),
+      P_double("sigma", 0.5, "spread of the sighting likelihood for a one-point object (m)", 1e-3, 100),
+      P_double("min_sigma", 0.15,
+               "the spread shrinks as 1/sqrt(points) down to this (m; partial views move a centroid by up to half "
+               "the object)",
+               1e-3, 100),
+      P_double("p_detect", 0.8, "P(a present object in view is seen with points)", 0.01, 0.99),
+      P_double("p_false", 0.1, "P(something of its class seen there although it is gone)", 0.001, 0.99),
+      P_double("dormant_after_s", 5.0,
+               "objects not confirmed for this long are dormant (inactive, belief kept) until seen again; 0 = never",
+               0, 1e9),
+      P_bool("dormant_on_lost", true, "tracking lost: every object of the map is dormant until seen again"),
+      P_double("max_range", 6.0, "negative evidence only for objects closer than this (m)", 0.1, 1000),
+      P_double("occlusion_margin", 0.3,
+               "a keypoint nearer than the object's centroid by more than this (m) occludes its place", 0, 100),
+      P_double("min_free_fraction", 0.6, "negative evidence needs this fraction of unoccluded keypoints on its place",
+               0, 1),
+      P_int("min_place_keypoints", 8, "negative evidence needs this many keypoints with depth on its place", 1, 100000),
+      P_int("min_support", 3, "its points or keypoints of its class on its place: it is there (no negative evidence)",
+            1, 100000),
+  };
+}
+
+void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ctx) {
+  MapManager::configure(p, ctx);
+  ltda_.threshold_m = p.getDouble("ltda_threshold");
+  ltda_.cluster_m = p.getDouble("cluster_radius");
+  ltda_.min_points = static_cast<int>(p.getInt("min_points"));
+  ltda_.classes = p.getIntList("classes");
+  ltda_.ignore_classes = p.getIntList("ignore_classes");
+  long_term_keyframes_ = static_cast<int>(p.getInt("long_term_keyframes"));
+  long_term_s_ = p.getDouble("long_term_s");
+  initial_belief_ = p.getDouble("initial_belief");
+  belief_threshold_ = p.getDouble("belief_threshold");
+  belief_.sigma_m = p.getDouble("sigma");
+  belief_.min_sigma_m = p.getDouble("min_sigma");
+  belief_.p_detect = p.getDouble("p_detect");
+  belief_.p_false = p.getDouble("p_false");
+  dormant_after_s_ = p.getDouble("dormant_after_s");
+  dormant_on_lost_ = p.getBool("dormant_on_lost");
+  max_range_ = p.getDouble("max_range");
+  occlusion_margin_ = p.getDouble("occlusion_margin");
+  min_free_fraction_ = p.getDouble("min_free_fraction");
+  min_place_keypoints_ = static_cast<int>(p.getInt("min_place_keypoints"));
+  min_support_points_ = static_cast<int>(p.getInt("min_support"));
+}
+
+bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const {
+  if (o.points.empty()) return false;
+  cv::Point2f c;
+  double z = 0;
+  if (!projectInto(kf, o.centroid, c, z) || z > max_range_) return false;
+  // Image rectangle of its 3D box (every corner in front of the camera).
+  float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
+  for (int k = 0; k < 8; k++) {
+    const Eigen::Vector3d X(k & 1 ? o.box_max.x() : o.box_min.x(), k & 2 ? o.box_max.y() : o.box_min.y(),
+                            k & 4 ? o.box_max.z() : o.box_min.z());
+    const Eigen::Vector3d Xc = kf.T_cw() * X;
+    if (Xc.z() < 0.05) return false;
+    const float u = static_cast<float>(kf.cam.fx * Xc.x() / Xc.z() + kf.cam.cx);
+    const float v = static_cast<float>(kf.cam.fy * Xc.y() / Xc.z() + kf.cam.cy);
+    x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
+  }
+  const ImageBounds& b = kf.cam.bounds;
+  x0 = std::max(x0, b.min_x), y0 = std::max(y0, b.min_y), x1 = std::min(x1, b.max_x), y1 = std::min(y1, b.max_y);
+  if (x1 <= x0 || y1 <= y0) return false;
+  int support = 0, with_depth = 0, free = 0;
+  for (size_t i = 0; i < kf.size(); i++) {
+    const cv::Point2f& pt = kf.keys_un[i].pt;
+    if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
+    const MapPointPtr& mp = kf.points[i];
+    if ((mp && mp->map_object == o.id) || (!kf.meta.empty() && kf.meta[i].class_id == o.class_id)) support++;
+    if (i < kf.depth.size() && kf.depth[i] > 0) {
+      with_depth++;
+      if (kf.depth[i] >= z - occlusion_margin_) free++;
+    }
+  }
+  return support < min_support_points_ && with_depth >= min_place_keypoints_ &&
+         free >= min_free_fraction_ * with_depth;
+}
+
+bool ObjectPersistenceFilter::longTerm(const KeyFrame& kf, int64_t last_kf, double last_t) const {
+  return last_kf < 0 || kf.id - last_kf > long_term_keyframes_ || kf.timestamp - last_t > long_term_s_;
+}
+
+void ObjectPersistenceFilter::setDormant(MapObject& o) {
+  if (!o.active) return;
+  o.setActive(false);
+  o.dormant = true;
+  stats_.dormant++;
+}
+
+void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
+  FilteringMapManager::onKeyFrame(kf);
+  Map* m = kf ? kf->map : nullptr;
+  if (!m) return;
+  std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
+  if (kf->bad) return;
+  stats_.keyframes++;
+  auto& objects = m->objects();
+  const auto candidates = objectCandidates(*kf, ltda_);
+  std::map<int64_t, double> previous_t;  // last sighting time before this keyframe
+  for (const auto& [id, o] : objects) previous_t[id] = o->last_seen_t;
+  const auto matches = associateObjects(objects, candidates, kf->id, kf->timestamp, ltda_, Map::objectIdCounter());
+  std::set<int64_t> seen;
+  for (const LtdaMatch& mt : matches) {
+    auto it = objects.find(mt.object);
+    if (it == objects.end()) continue;
+    MapObject& o = *it->second;
+    seen.insert(o.id);
+    if (mt.created) {
+      o.belief = initial_belief_;
+      stats_.created++;
+      continue;
+    }
+    const bool was_dormant = o.dormant;
+    o.dormant = false;
+    if (was_dormant || longTerm(*kf, mt.previous_seen_kf, previous_t[o.id])) {
+      o.belief = objectBeliefSighted(o.belief, mt.distance, static_cast<int>(o.numPoints()), belief_);
+      stats_.sightings++;
+    }
+    if (was_dormant) stats_.woken++;
+    if (!o.active && o.belief >= belief_threshold_) {
+      o.setActive(true);
+      if (!was_dormant) stats_.reactivated++;
+    } else if (o.active && o.belief < belief_threshold_) {  // seen far from where it was
+      o.setActive(false);
+      stats_.deactivated++;
+    }
+  }
+  for (auto& [id, op] : objects) {
+    MapObject& o = *op;
+    if (seen.count(id)) continue;
+    if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
+    if (placeInViewAndFree(*kf, o)) {
+      o.belief = objectBeliefMissed(o.belief, belief_);
+      stats_.misses++;
+      if (o.belief < belief_threshold_) {
+        o.dormant = false;
+        if (o.active) {
+          o.setActive(false);
+          stats_.deactivated++;
+        }
+        continue;
+      }
+    }
+    if (dormant_after_s_ > 0 && o.active && kf->timestamp - o.last_seen_t > dormant_after_s_) setDormant(o);
+  }
+}
+
+void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {
+  FilteringMapManager::onTrackingLost(m);
+  if (!m || !dormant_on_lost_) return;
+  std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
+  for (auto& [id, o] : m->objects()) setDormant(*o);
+}
+
+// ---------------------------------------------------------------------------
+// PointPersistenceFilter
+
+std::string PointPersistenceFilter::description() const {
+  return "Feature persistence filter (Rosen et al. 2016) on map points of no object: points a keyframe should see but "
+         "does not lose belief; below belief_threshold they are inactive; a descriptor match re-activates them";
+}
+
+std::vector<ParamSpec> PointPersistenceFilter::paramSpecs() const {
+  return {
+      P_double("mean_survival", 3600.0, "prior mean survival time of a feature (s; exponential prior)", 1e-3, 1e12),
+      P_double("p_miss", 0.3,
+               "P(not matched | present): ORB matching misses ~30% of visible points (Rosen et al. use 0.1 for "
+               "their detector)",
+               1e-4, 0.99),
+      P_double("p_false_alarm", 0.01, "P(matched | absent)", 1e-6, 0.99),
+      P_double("belief_threshold", 0.3, "points below this survival belief are inactive", 0, 1),
+      P_double("max_range", 6.0, "a keyframe should see points closer than this (m)", 0.1, 1000),
+      P_double("occlusion_margin", 0.2, "a keypoint nearer than the point by more than this (m) occludes it", 0, 100),
+      P_double("match_radius", 8.0, "pixels around the projection searched for occluders and re-detections", 1, 1000),
+      P_int("max_descriptor_distance", 50, "an inactive point is seen again if a keypoint there is this close (ORB)",
+            0, 256),
+      P_bool("object_points", false, "also filter points of MapObjects (by default the object filter's)"),
+  };
+}
+
+void PointPersistenceFilter::configure(const Params& p, const PluginContext& ctx) {
+  MapManager::configure(p, ctx);
+  fp_.mean_survival_s = p.getDouble("mean_survival");
+  fp_.p_miss = p.getDouble("p_miss");
+  fp_.p_false_alarm = p.getDouble("p_false_alarm");
+  belief_threshold_ = p.getDouble("belief_threshold");
+  max_range_ = p.getDouble("max_range");
+  occlusion_margin_ = p.getDouble("occlusion_margin");
+  match_radius_px_ = p.getDouble("match_radius");
+  max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
+  object_points_ = p.getBool("object_points");
+}
+
+double PointPersistenceFilter::belief(int64_t point_id, double t) const {
+  auto it = filters_.find(point_id);
+  return it == filters_.end() ? 1.0 : it->second.belief(t);
+}
+
+void PointPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
+  FilteringMapManager::onKeyFrame(kf);
+  Map* m = kf ? kf->map : nullptr;
+  if (!m) return;
+  std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
+  if (kf->bad) return;
+  stats_.keyframes++;
+  const double t = kf->timestamp;
+  // The local map: points of this keyframe and of its best covisibles.
+  std::set<const MapPoint*> observed;
+  for (const auto& p : kf->points)
+    if (p) observed.insert(p.get());
+  std::map<int64_t, MapPointPtr> local;
+  auto collect = [&](const KeyFrame& k) {
+    for (const auto& p : k.points)
+      if (p && !p->bad && (object_points_ || p->map_object < 0) && p->label != KpLabel::Dynamic) local[p->id] = p;
+  };
+  collect(*kf);
+  for (KeyFrame* k : kf->bestCovisibles(10)) collect(*k);
+  const Eigen::Vector3d cam_center = kf->center();
+  for (const auto& [id, p] : local) {
+    auto [it, inserted] = filters_.try_emplace(id, fp_, t);
+    FeaturePersistence& f = it->second;
+    if (t < f.lastTime()) continue;  // keyframes arrive in time order; a re-inserted one does not count twice
+    bool seen = observed.count(p.get()) > 0;
+    if (!seen) {
+      cv::Point2f uv;
+      double z = 0;
+      if (!projectInto(*kf, p->pos, uv, z) || z > max_range_) continue;
+      const Eigen::Vector3d ray = (p->pos - cam_center).normalized();
+      if (ray.dot(p->normal) < 0.5) continue;  // seen from too far off its viewing direction (ORB-SLAM: 60 deg)
+      bool any_depth = false, occluded = false;
+      for (size_t i : kf->featuresInArea(uv.x, uv.y, static_cast<float>(match_radius_px_))) {
+        const float d = i < kf->depth.size() ? kf->depth[i] : 0.f;
+        if (d > 0) any_depth = true;
+        if (d > 0 && d < z - occlusion_margin_) occluded = true;
+        if (!p->active && descriptorDistance(kf->descriptors.ptr<uint8_t>(static_cast<int>(i)), p->desc.data()) <=
+                              max_descriptor_distance_)
+          seen = true;
+      }
+      if (occluded || !any_depth) continue;  // hidden, or nothing to tell (no keypoint there)
+    }
+    f.update(seen, t);
+    if (seen) {
+      stats_.sightings++;
+    } else {
+      stats_.misses++;
+    }
+    const bool keep = f.belief(t) >= belief_threshold_;
+    if (p->active && !keep) {
+      p->active = false;
+      stats_.deactivated++;
+    } else if (!p->active && keep && seen) {
+      p->active = true;
+      stats_.reactivated++;
+    }
+  }
+}
+
+}  // namespace dslam
