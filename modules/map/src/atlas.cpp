@@ -204,11 +204,30 @@ void Atlas::save(const std::string& path) const {
       w.put(p->object_id);
       w.put(static_cast<uint8_t>(p->label));
       w.put(static_cast<uint8_t>(p->active));
+      w.put(p->map_object);  // version 2
       w.put(static_cast<uint64_t>(p->observations().size()));
       for (const auto& [kid, o] : p->observations()) {
         w.put(kid);
         w.put(static_cast<int32_t>(o.second));
       }
+    }
+    // Version 2: the map's objects (semantic map, persistence beliefs).
+    w.put(static_cast<uint64_t>(m->objects().size()));
+    for (const auto& [oid, o] : m->objects()) {
+      w.put(o->id);
+      w.put(static_cast<int32_t>(o->class_id));
+      w.put(o->belief);
+      w.put(static_cast<uint8_t>(o->active));
+      w.put(static_cast<uint8_t>(o->dormant));
+      w.put(o->first_seen_kf);
+      w.put(o->last_seen_kf);
+      w.put(o->first_seen_t);
+      w.put(o->last_seen_t);
+      w.put(static_cast<int32_t>(o->sightings));
+      for (const cv::Rect2f& b : {o->first_box, o->current_box})
+        for (float v : {b.x, b.y, b.width, b.height}) w.put(v);
+      w.put(static_cast<uint64_t>(o->points.size()));
+      for (const auto& [pid, p] : o->points) w.put(pid);
     }
   }
   w.bytes(kEnd, 8);
@@ -307,7 +326,7 @@ KeyFrameRecord readKeyFrame(Reader& r, const std::string& path, const Expected& 
   return rec;
 }
 
-MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& kfs) {
+MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& kfs, uint32_t version) {
   const int64_t id = r.get<int64_t>();
   const int64_t first_kf = r.get<int64_t>();
   Eigen::Vector3d X;
@@ -325,6 +344,7 @@ MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& k
   if (label > 2) r.fail("point label out of range");
   mp->label = static_cast<KpLabel>(label);
   mp->active = r.get<uint8_t>() != 0;
+  if (version >= 2) mp->map_object = r.get<int64_t>();
   const uint64_t n_obs = r.count(1'000'000, "observation", 8 + 4);
   for (uint64_t o = 0; o < n_obs; o++) {
     const int64_t kid = r.get<int64_t>();
@@ -342,8 +362,43 @@ MapPointPtr readPoint(Reader& r, Map* m, const std::map<int64_t, KeyFramePtr>& k
 
 /** One map: keyframes (origin first), points, then covisibility, spanning
  *  tree and loop edges. Raises max_kf / max_pt to the largest ids read. */
+/** Version 2: the objects of map `m` (their points must be read). */
+void readObjects(Reader& r, Map& m, int64_t& max_obj) {
+  const uint64_t n = r.count(10'000'000, "object", 8 + 4 + 8 + 1 + 1 + 8 * 4 + 4 + 8 * 4 + 8);
+  for (uint64_t k = 0; k < n; k++) {
+    auto o = std::make_shared<MapObject>();
+    o->id = r.get<int64_t>();
+    if (o->id < 0 || m.objects().count(o->id)) r.fail("bad or duplicate object id");
+    o->class_id = r.get<int32_t>();
+    o->belief = r.get<double>();
+    if (!(o->belief >= 0 && o->belief <= 1)) r.fail("object belief outside [0, 1]");
+    o->active = r.get<uint8_t>() != 0;
+    o->dormant = r.get<uint8_t>() != 0;
+    o->first_seen_kf = r.get<int64_t>();
+    o->last_seen_kf = r.get<int64_t>();
+    o->first_seen_t = r.get<double>();
+    o->last_seen_t = r.get<double>();
+    o->sightings = r.get<int32_t>();
+    for (cv::Rect2f* b : {&o->first_box, &o->current_box}) {
+      float v[4];
+      for (float& x : v) x = r.get<float>();
+      *b = cv::Rect2f(v[0], v[1], v[2], v[3]);
+    }
+    const uint64_t np = r.count(100'000'000, "object point", 8);
+    for (uint64_t i = 0; i < np; i++) {
+      const int64_t pid = r.get<int64_t>();
+      auto it = m.points().find(pid);
+      if (it == m.points().end()) r.fail("object point of an unknown map point");
+      o->points[pid] = it->second;
+    }
+    o->refresh();
+    max_obj = std::max(max_obj, o->id);
+    m.objects()[o->id] = o;
+  }
+}
+
 std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected& exp, int64_t& max_kf,
-                             int64_t& max_pt) {
+                             int64_t& max_pt, uint32_t version, int64_t& max_obj) {
   auto m = std::make_shared<Map>(r.get<int64_t>());
   const int64_t origin_id = r.get<int64_t>();
   const uint64_t n_kf = r.count(10'000'000, "keyframe", 8 + 4 + 8 + 12 * 4 + 4 + 4 + 7 * 8 + 8 + 8 + 1 + 8);
@@ -366,10 +421,11 @@ std::shared_ptr<Map> readMap(Reader& r, const std::string& path, const Expected&
     if (rec.kf->id != origin_id) m->addKeyFrame(rec.kf);
   const uint64_t n_pt = r.count(100'000'000, "point", 8 + 8 + 3 * 8 + 32 + 8 + 2 + 4 + 1 + 1 + 8);
   for (uint64_t k = 0; k < n_pt; k++) {
-    MapPointPtr mp = readPoint(r, m.get(), kfs);
+    MapPointPtr mp = readPoint(r, m.get(), kfs, version);
     max_pt = std::max(max_pt, mp->id);
     m->addPoint(mp);
   }
+  if (version >= 2) readObjects(r, *m, max_obj);
   for (auto& rec : in_order) rec.kf->updateConnections();
   for (auto& rec : in_order) {
     auto pit = kfs.find(rec.parent);
@@ -388,17 +444,18 @@ void Atlas::load(const std::string& path) {
   if (!r.tryBytes(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
     throw DataError(path + " is not a dslam atlas file (expected the 'DSLAMATL' header written by dslam run with outputs.atlas)");
   const uint32_t version = r.get<uint32_t>();
-  if (version != kFileVersion)
-    throw DataError(path + ": atlas file version " + std::to_string(version) + " is not supported (this dslam reads version " +
-                    std::to_string(kFileVersion) + "); save it again with this version");
+  if (version < 1 || version > kFileVersion)
+    throw DataError(path + ": atlas file version " + std::to_string(version) +
+                    " is not supported (this dslam reads versions 1 to " + std::to_string(kFileVersion) +
+                    "); save it again with this version");
   if (r.get<uint32_t>() != kEndian) throw DataError(path + ": atlas file written on a machine with another byte order");
   const uint64_t n_maps = r.count(1 << 16, "map", 8 + 8 + 8 + 8);
   const int64_t current_id = r.get<int64_t>();
   const Expected exp{exp_cam_, exp_scale_};
   std::vector<std::shared_ptr<Map>> maps;
-  int64_t max_kf = -1, max_pt = -1, max_map = -1;
+  int64_t max_kf = -1, max_pt = -1, max_map = -1, max_obj = -1;
   for (uint64_t mi = 0; mi < n_maps; mi++) {
-    maps.push_back(readMap(r, path, exp, max_kf, max_pt));
+    maps.push_back(readMap(r, path, exp, max_kf, max_pt, version, max_obj));
     max_map = std::max(max_map, maps.back()->id);
   }
   char end[8];
@@ -414,6 +471,7 @@ void Atlas::load(const std::string& path) {
   next_map_id_ = max_map + 1;
   if (!current_) createMap();
   Map::reserveIds(max_kf, max_pt);
+  Map::objectIdCounter() = std::max(Map::objectIdCounter(), max_obj + 1);
   size_t nk = 0, np = 0;
   for (auto& m : maps_) {
     nk += m->numKeyFrames();

@@ -204,8 +204,12 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
   // objects), then to loop closing.
   LoopCloser* lc = loop_.get();
   MapManager* mm = maps_.get();
-  mapper_->setKeyFrameCallback([lc, mm](const KeyFramePtr& kf) {
-    mm->onKeyFrame(kf);
+  StageTimer* timer = &timer_;
+  mapper_->setKeyFrameCallback([lc, mm, timer](const KeyFramePtr& kf) {
+    {
+      StageTimer::Scope t(timer, "map_manager", kf->frame_index);
+      mm->onKeyFrame(kf);
+    }
     if (lc) lc->insertKeyFrame(kf);
   });
   if (mode_ == config::Mode::Parallel) {

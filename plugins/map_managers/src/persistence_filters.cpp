@@ -271,6 +271,16 @@ void PointPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   };
   collect(*kf);
   for (KeyFrame* k : kf->bestCovisibles(10)) collect(*k);
+  // Inactive points, wherever they were seen: a keyframe may bring them back.
+  for (auto it = inactive_.begin(); it != inactive_.end();) {
+    MapPointPtr p = it->second.lock();
+    if (!p || p->bad || p->active) {
+      it = inactive_.erase(it);
+      continue;
+    }
+    if (p->map == m) local[p->id] = p;
+    ++it;
+  }
   const Eigen::Vector3d cam_center = kf->center();
   for (const auto& [id, p] : local) {
     auto [it, inserted] = filters_.try_emplace(id, fp_, t);
@@ -303,6 +313,7 @@ void PointPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     const bool keep = f.belief(t) >= belief_threshold_;
     if (p->active && !keep) {
       p->active = false;
+      inactive_[p->id] = p;
       stats_.deactivated++;
     } else if (!p->active && keep && seen) {
       p->active = true;

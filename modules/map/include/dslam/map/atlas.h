@@ -43,7 +43,9 @@ class Atlas : public MapManager {
     exp_scale_ = std::move(scale);
   }
 
-  static constexpr uint32_t kFileVersion = 1;
+  /** 2: map points carry their object, maps their MapObjects; version 1
+   *  files (no objects) still load. */
+  static constexpr uint32_t kFileVersion = 2;
 
  private:
   std::vector<std::shared_ptr<Map>> maps_;

@@ -23,6 +23,8 @@
  *  `belief_threshold` the point is inactive; a descriptor match in a later
  *  keyframe re-activates it. */
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <unordered_map>
 
 #include "dslam/map/filtering_map_manager.h"
@@ -97,6 +99,7 @@ class PointPersistenceFilter : public FilteringMapManager {
   int max_descriptor_distance_ = 50;
   bool object_points_ = false;  ///< also filter points of MapObjects (default: those are the object filter's)
   std::unordered_map<int64_t, FeaturePersistence> filters_;
+  std::map<int64_t, std::weak_ptr<MapPoint>> inactive_;  ///< points this filter deactivated
   PersistenceStats stats_;
 };
 
