@@ -141,7 +141,7 @@ void runObjects(const ObjectsOpts& o) {
   if (fs::is_directory(o.run)) {
     objects_file = (fs::path(o.run) / "objects.json").string();
     if (!fs::exists(objects_file))
-      throw DataError("run folder " + o.run + " has no objects.json (`dslam run --out` writes it when the map has " +
+      throw DataError("run folder " + o.run + " has no objects.json (dslam run --out writes it when the map has " +
                       "an object layer)");
     traj_file = (fs::path(o.run) / "trajectory.txt").string();
   } else {

@@ -123,12 +123,13 @@ EstObjects readEstObjects(const std::string& file) {
   const At top{file, ""};
   if (!root.is_object()) top.fail("expected a JSON object {\"format\": \"dslam-objects\", ...}, got " + describe(root));
   if (!root.contains("format") && root.contains("scenario") && root.contains("objects"))
-    top.fail("this is the ground-truth objects.json of the dslam synth scene '" + root["scenario"].dump() +
+    top.fail("this is the ground-truth objects.json of the dslam synth scene '" +
+             (root["scenario"].is_string() ? root["scenario"].get<std::string>() : root["scenario"].dump()) +
              "', not a run's object map (format \"dslam-objects\"): give the run folder (or its objects.json) "
              "first and the scene folder second");
   if (!root.contains("format") || root["format"] != "dslam-objects")
     top.fail("not a dslam object map: 'format' is " + (root.contains("format") ? describe(root["format"]) : "missing") +
-             ", expected \"dslam-objects\" (written by `dslam run --out`)");
+             ", expected \"dslam-objects\" (written by dslam run --out)");
   const int64_t version = top.integer(top.need(root, "version"), "version");
   if (version != 1) top.fail("unsupported version " + std::to_string(version) + " (this dslam reads version 1)");
   EstObjects out;
@@ -209,17 +210,17 @@ const SceneObject* Scene::find(const std::string& n) const {
 Scene readScene(const std::string& dir) {
   if (!fs::exists(dir)) throw DataError("scene folder not found: " + dir);
   if (!fs::is_directory(dir))
-    throw DataError(dir + " is not a scene folder (give the folder written by `dslam synth ... --out DIR`)");
+    throw DataError(dir + " is not a scene folder (give the folder written by dslam synth ... --out DIR)");
   const std::string file = (fs::path(dir) / "objects.json").string();
   const std::string gt_file = (fs::path(dir) / "groundtruth.txt").string();
   if (!fs::exists(file))
-    throw DataError(dir + ": no objects.json (the scene ground truth written by `dslam synth`; is this a scene folder?)");
+    throw DataError(dir + ": no objects.json (the scene ground truth written by dslam synth; is this a scene folder?)");
   const json root = parseJsonFile(file);
   const At top{file, ""};
   if (!root.is_object()) top.fail("expected a JSON object, got " + describe(root));
   if (root.contains("format") && root["format"] == "dslam-objects")
     top.fail("this is a run's object map (\"dslam-objects\"), not a scene's ground truth: give the run first and the "
-             "scene folder (written by `dslam synth`) second");
+             "scene folder (written by dslam synth) second");
   if (!fs::exists(gt_file)) throw DataError(dir + ": no groundtruth.txt (the camera ground truth of the scene)");
   Scene s;
   s.dir = dir;
