@@ -1,13 +1,17 @@
 // `dslam eval ate GT EST [...]` and `dslam eval rpe GT EST --delta N --delta-unit frames|s|m [...]`:
-// trajectory evaluation against ground truth (docs/evaluation.md).
+// trajectory evaluation against ground truth; `dslam eval objects RUN SCENE [...]`: the semantic object
+// map of a run against a synthetic scene's ground truth (docs/evaluation.md).
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 #include "command.h"
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/eval/eval.h"
+#include "dslam/eval/objects.h"
 #include "dslam/eval/plot.h"
 #include "dslam/trajectory/io.h"
 
@@ -126,6 +130,64 @@ void runRpe(const Common& o, double delta, const std::string& unit) {
   });
 }
 
+struct ObjectsOpts {
+  std::string run, scene, json;
+  std::string align = "se3";
+  double align_until = std::numeric_limits<double>::quiet_NaN();
+  eval::ObjectEvalOptions eo;
+};
+
+/** A `dslam synth` folder (groundtruth.txt, rgb.txt), or its objects.json. */
+bool isSceneFolder(const std::string& p) {
+  namespace fs = std::filesystem;
+  const fs::path d = fs::is_directory(p) ? fs::path(p) : fs::path(p).parent_path();
+  return fs::exists(d / "groundtruth.txt") && fs::exists(d / "rgb.txt") && fs::exists(d / "objects.json");
+}
+
+void runObjects(ObjectsOpts o) {
+  namespace fs = std::filesystem;
+  // Either order (GT_SCENE EST or EST GT_SCENE); a scene's objects.json stands for its folder.
+  if (isSceneFolder(o.run) && !isSceneFolder(o.scene)) std::swap(o.run, o.scene);
+  if (!fs::is_directory(o.scene) && isSceneFolder(o.scene)) o.scene = fs::path(o.scene).parent_path().string();
+  std::string objects_file = o.run, traj_file;
+  if (fs::is_directory(o.run)) {
+    objects_file = (fs::path(o.run) / "objects.json").string();
+    if (!fs::exists(objects_file))
+      throw DataError("run folder " + o.run + " has no objects.json (dslam run --out writes it when the map has " +
+                      "an object layer)");
+    traj_file = (fs::path(o.run) / "trajectory.txt").string();
+  } else {
+    traj_file = (fs::path(o.run).parent_path() / "trajectory.txt").string();
+  }
+  const eval::Scene scene = eval::readScene(o.scene);
+  const eval::EstObjects est = eval::readEstObjects(objects_file);
+  eval::ObjectEvalOptions eo = o.eo;
+  eo.align = eval::alignFromString(o.align);
+  eo.align_until = o.align_until;
+  eo.run_name = objects_file;
+  eo.traj_name = traj_file;
+  Trajectory traj;
+  if (fs::exists(traj_file)) {
+    traj = traj::readTum(traj_file);
+  } else if (eo.align != eval::Align::None) {
+    throw DataError("no trajectory.txt next to " + objects_file + " (" + traj_file +
+                    "): it is needed to align the objects to the scene (--align none if they are in its frame)");
+  }
+  size_t in_map = 0;
+  for (const auto& ob : est.objects) in_map += ob.map == est.map;
+  if (in_map == 0)
+    DSLAM_LOG(Warn, objects_file << ": no objects in map " << est.map
+                                 << " (the map of trajectory.txt); evaluated as an empty object map");
+  const auto r = eval::evaluateObjects(scene, est, traj, eo);
+  std::cout << eval::toText(r) << std::flush;
+  if (!o.json.empty()) {
+    AtomicOfstream f(o.json);
+    f << eval::toJson(r) << "\n";
+    f.commit();
+    DSLAM_LOG(Info, "numbers written to " << o.json);
+  }
+}
+
 void setup(CLI::App& sub) {
   sub.require_subcommand(1);
   static Common ate_o, rpe_o;
@@ -145,9 +207,39 @@ void setup(CLI::App& sub) {
       ->check(CLI::IsMember({"frames", "s", "m"}));
   rpe->callback([] { runRpe(rpe_o, delta, unit); });
 
+  static ObjectsOpts obj_o;
+  auto* obj = sub.add_subcommand("objects", "Semantic object map of a run against a synthetic scene's ground truth");
+  obj->add_option("run", obj_o.run,
+                  "`dslam run --out` folder (objects.json, trajectory.txt) or its objects.json (the two positional "
+                  "arguments may come in either order)")
+      ->required();
+  obj->add_option("scene", obj_o.scene, "scene folder written by `dslam synth` (objects.json, groundtruth.txt)")
+      ->required();
+  obj->add_option("--align", obj_o.align, "alignment of trajectory.txt (and the objects) onto the ground truth")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"se3", "none"}));
+  obj->add_option("--align-until", obj_o.align_until,
+                  "align on the poses before this time, s (default: the first change event; all poses if none)");
+  obj->add_option("--match-radius", obj_o.eo.match_radius, "centroid-to-box distance of a match, metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  obj->add_option("--min-visible-pixels", obj_o.eo.min_visible_pixels,
+                  "a ground-truth object counts if the camera saw this many of its pixels (summed over frames)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  obj->add_option("--max-dt", obj_o.eo.max_dt, "trajectory association threshold, seconds")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  obj->add_option("--max-ate", obj_o.eo.max_ate,
+                  "above this ATE rmse (m) of the alignment poses the run and the scene do not match")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  obj->add_option("--json", obj_o.json, "also write the numbers to this JSON file");
+  obj->callback([] { runObjects(obj_o); });
+
   setupEvalDense(sub);  // cmd_eval_dense.cpp
 }
 
 }  // namespace
 
-DSLAM_COMMAND(eval, "Evaluate a trajectory (ATE, RPE) or a dense map against ground truth", setup);
+DSLAM_COMMAND(eval, "Evaluate a trajectory (ATE, RPE), a dense map or a semantic object map against ground truth", setup);

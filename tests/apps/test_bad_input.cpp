@@ -4,6 +4,7 @@
 // it); the test fails when the page and the program disagree.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -68,6 +69,26 @@ void writeZeroDepth(const std::string& path, int w, int h) {
 std::string pipeline(const std::string& dir, const std::string& text) {
   writeFile(dir + "/pipeline.yaml", text);
   return dir + "/pipeline.yaml";
+}
+
+/** A run folder dir/run for `dslam eval objects`: objects.json with the given
+ *  "objects" list and the tiny scene's ground truth as trajectory.txt (or
+ *  `traj` if given). */
+std::string objectsRun(const std::string& dir, const std::string& objects, const std::string& traj = "") {
+  const std::string d = dir + "/run";
+  fs::create_directories(d);
+  writeFile(d + "/objects.json", "{\"format\": \"dslam-objects\", \"version\": 1, \"map\": 0, \"objects\": [" +
+                                     objects + "]}\n");
+  if (traj.empty())
+    fs::copy_file(tinyScene() + "/groundtruth.txt", d + "/trajectory.txt");
+  else
+    writeFile(d + "/trajectory.txt", traj);
+  return d;
+}
+
+/** An estimated object of class `cls` ("class_id": 62 or "class": "chair"). */
+std::string estObject(const std::string& cls) {
+  return "{\"id\": 1, \"map\": 0, " + cls + ", \"centroid\": [1, 0, 0.5], \"active\": true}";
 }
 
 const std::string kBaseline = "config/pipelines/orbslam_baseline.yaml";
@@ -270,6 +291,71 @@ std::vector<Case> cases() {
                },
                0, {"gt.txt: 1 repeated timestamp(s)"}, "[warn]"});
   // ---- scenarios, vocabularies, atlases, detectors --------------------------
+  // ---- object maps (`dslam eval objects`) ------------------------------------
+  c.push_back({"`dslam eval objects` run", "the scene's own objects.json instead of a run's",
+               [](const std::string&) {
+                 return "eval objects " + q(tinyScene() + "/objects.json") + " " + q(tinyScene());
+               },
+               1, {"objects.json", "ground-truth objects.json of the dslam synth scene", "not a run's object map"}});
+  c.push_back({"`dslam eval objects` run", "folder without objects.json",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/run");
+                 return "eval objects " + q(d + "/run") + " " + q(tinyScene());
+               },
+               1, {"$DIR/run", "has no objects.json"}});
+  c.push_back({"`dslam eval objects` run", "objects.json of another format",
+               [](const std::string& d) {
+                 writeFile(d + "/objects.json", "{\"format\": \"coco\", \"objects\": []}\n");
+                 return "eval objects " + q(d + "/objects.json") + " " + q(tinyScene()) + " --align none";
+               },
+               1, {"$DIR/objects.json", "not a dslam object map", "expected \"dslam-objects\""}});
+  c.push_back({"`dslam eval objects` run", "unknown class id",
+               [](const std::string& d) {
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 300"))) + " " + q(tinyScene());
+               },
+               1, {"$DIR/run/objects.json", "objects[0] (id 1)", "unknown class id 300"}});
+  c.push_back({"`dslam eval objects` run", "unknown class name",
+               [](const std::string& d) {
+                 return "eval objects " + q(objectsRun(d, estObject("\"class\": \"chiar\""))) + " " + q(tinyScene());
+               },
+               1, {"$DIR/run/objects.json", "unknown class 'chiar'"}});
+  c.push_back({"`dslam eval objects` run", "no objects (accepted: scored as an empty map)",
+               [](const std::string& d) { return "eval objects " + q(objectsRun(d, "")) + " " + q(tinyScene()); }, 0,
+               {"$DIR/run/objects.json", "no objects in map 0"}, "[warn]"});
+  c.push_back({"`dslam eval objects` scene", "folder without objects.json",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/scene");
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"))) + " " + q(d + "/scene");
+               },
+               1, {"$DIR/scene", "no objects.json"}});
+  c.push_back({"`dslam eval objects` scene", "folder without groundtruth.txt",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/scene");
+                 fs::copy_file(tinyScene() + "/objects.json", d + "/scene/objects.json");
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"))) + " " + q(d + "/scene");
+               },
+               1, {"$DIR/scene", "no groundtruth.txt"}});
+  c.push_back({"`dslam eval objects` run and scene", "trajectory of another time span",
+               [](const std::string& d) {
+                 const std::string t = "10.0 0 0 0 0 0 0 1\n10.1 1 0 0 0 0 0 1\n10.2 0 1 0 0 0 0 1\n";
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"), t)) + " " + q(tinyScene());
+               },
+               1, {"the run and the scene do not match", "no ground-truth pose within max_dt"}});
+  c.push_back({"`dslam eval objects` run and scene", "trajectory of another camera path (same stamps)",
+               [](const std::string& d) {
+                 std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
+                 std::string line, t;
+                 int i = 0;
+                 while (std::getline(in, line)) {
+                   if (line.empty() || line[0] == '#') continue;
+                   const std::string stamp = line.substr(0, line.find(' '));
+                   t += stamp + " " + std::to_string(2 * std::cos(1.3 * i)) + " " + std::to_string(2 * std::sin(2.1 * i)) +
+                        " " + std::to_string(0.5 * i) + " 0 0 0 1\n";
+                   i++;
+                 }
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"), t)) + " " + q(tinyScene());
+               },
+               1, {"the run and the scene do not match: ATE rmse", "$DIR/run/trajectory.txt", "--max-ate"}});
   c.push_back({"scenario YAML", "unknown key",
                [](const std::string& d) {
                  writeFile(d + "/scene.yaml", "name: x\nrom: {}\n");

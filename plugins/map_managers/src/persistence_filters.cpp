@@ -6,6 +6,7 @@
 #include <set>
 
 #include "dslam/core/descriptor.h"
+#include "dslam/core/log.h"
 #include "dslam/map/keyframe.h"
 #include "dslam/map/map.h"
 
@@ -29,8 +30,19 @@ bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv,
 
 }  // namespace
 
+std::string PersistenceStats::str() const {
+  return std::to_string(keyframes) + " keyframes, " + std::to_string(created) + " objects created, " +
+         std::to_string(sightings) + " sightings, " + std::to_string(misses) + " misses, " +
+         std::to_string(deactivated) + " deactivated, " + std::to_string(reactivated) + " reactivated, " +
+         std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken";
+}
+
 // ---------------------------------------------------------------------------
 // ObjectPersistenceFilter
+
+ObjectPersistenceFilter::~ObjectPersistenceFilter() {
+  if (stats_.keyframes > 0) DSLAM_LOG(Info, "object persistence filter: " << stats_.str());
+}
 
 std::string ObjectPersistenceFilter::description() const {
   return "Changing-SLAM object persistence filter: MapObjects by long-term data association, a Bayes belief per "
@@ -65,10 +77,14 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
       P_bool("dormant_on_lost", true, "tracking lost: every object of the map is dormant until seen again"),
       P_double("max_range", 6.0, "negative evidence only for objects closer than this (m)", 0.1, 1000),
       P_double("occlusion_margin", 0.3,
-               "a keypoint nearer than the object's centroid by more than this (m) occludes its place", 0, 100),
-      P_double("min_free_fraction", 0.6, "negative evidence needs this fraction of unoccluded keypoints on its place",
+               "negative evidence: keypoints beyond the object's centroid by more than this (m) see through its place",
+               0, 100),
+      P_double("min_free_fraction", 0.6,
+               "negative evidence needs this fraction of the keypoints in the central half of its place to see "
+               "through it",
                0, 1),
-      P_int("min_place_keypoints", 8, "negative evidence needs this many keypoints with depth on its place", 1, 100000),
+      P_int("min_place_keypoints", 8, "negative evidence needs this many keypoints with depth in the central half of "
+            "its place", 1, 100000),
       P_int("min_support", 3, "its points or keypoints of its class on its place: it is there (no negative evidence)",
             1, 100000),
   };
@@ -114,22 +130,28 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
     const float v = static_cast<float>(kf.cam.fy * Xc.y() / Xc.z() + kf.cam.cy);
     x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
   }
+  // Its whole place in view: at the image border a present object is easily
+  // missed (few of its keypoints, cut box).
   const ImageBounds& b = kf.cam.bounds;
-  x0 = std::max(x0, b.min_x), y0 = std::max(y0, b.min_y), x1 = std::min(x1, b.max_x), y1 = std::min(y1, b.max_y);
-  if (x1 <= x0 || y1 <= y0) return false;
-  int support = 0, with_depth = 0, free = 0;
+  if (x0 < b.min_x || y0 < b.min_y || x1 > b.max_x || y1 > b.max_y || x1 <= x0 || y1 <= y0) return false;
+  // The central half of its place: the camera must see *through* it (depth
+  // beyond the centroid by occlusion_margin), not onto something there.
+  const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);
+  const float cy0 = y0 + 0.25f * (y1 - y0), cy1 = y1 - 0.25f * (y1 - y0);
+  int support = 0, with_depth = 0, through = 0;
   for (size_t i = 0; i < kf.size(); i++) {
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
     if ((mp && mp->map_object == o.id) || (!kf.meta.empty() && kf.meta[i].class_id == o.class_id)) support++;
+    if (pt.x < cx0 || pt.x > cx1 || pt.y < cy0 || pt.y > cy1) continue;
     if (i < kf.depth.size() && kf.depth[i] > 0) {
       with_depth++;
-      if (kf.depth[i] >= z - occlusion_margin_) free++;
+      if (kf.depth[i] > z + occlusion_margin_) through++;
     }
   }
   return support < min_support_points_ && with_depth >= min_place_keypoints_ &&
-         free >= min_free_fraction_ * with_depth;
+         through >= min_free_fraction_ * with_depth;
 }
 
 bool ObjectPersistenceFilter::longTerm(const KeyFrame& kf, int64_t last_kf, double last_t) const {
@@ -211,6 +233,10 @@ void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {
 // ---------------------------------------------------------------------------
 // PointPersistenceFilter
 
+PointPersistenceFilter::~PointPersistenceFilter() {
+  if (stats_.keyframes > 0) DSLAM_LOG(Info, "point persistence filter: " << stats_.str());
+}
+
 std::string PointPersistenceFilter::description() const {
   return "Feature persistence filter (Rosen et al. 2016) on map points of no object: points a keyframe should see but "
          "does not lose belief; below belief_threshold they are inactive; a descriptor match re-activates them";
@@ -219,9 +245,9 @@ std::string PointPersistenceFilter::description() const {
 std::vector<ParamSpec> PointPersistenceFilter::paramSpecs() const {
   return {
       P_double("mean_survival", 3600.0, "prior mean survival time of a feature (s; exponential prior)", 1e-3, 1e12),
-      P_double("p_miss", 0.3,
-               "P(not matched | present): ORB matching misses ~30% of visible points (Rosen et al. use 0.1 for "
-               "their detector)",
+      P_double("p_miss", 0.5,
+               "P(not matched | present): a keyframe matches about half of the visible points of its local map "
+               "(measured on walking_rpy; Rosen et al. use 0.1 for their detector)",
                1e-4, 0.99),
       P_double("p_false_alarm", 0.01, "P(matched | absent)", 1e-6, 0.99),
       P_double("belief_threshold", 0.3, "points below this survival belief are inactive", 0, 1),

@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <string>
 #include <unordered_map>
 
 #include "dslam/map/filtering_map_manager.h"
@@ -43,11 +44,13 @@ struct PersistenceStats {
   int64_t reactivated = 0;  ///< brought back above it
   int64_t dormant = 0;      ///< objects made dormant (not confirmed for long, tracking lost)
   int64_t woken = 0;        ///< dormant objects confirmed again
+  std::string str() const;
 };
 
 class ObjectPersistenceFilter : public FilteringMapManager {
   DEFINE_MRPT_OBJECT(ObjectPersistenceFilter, dslam)
  public:
+  ~ObjectPersistenceFilter() override;  ///< logs what it did (Info)
   std::string description() const override;
   std::vector<ParamSpec> paramSpecs() const override;
   void configure(const Params& p, const PluginContext& ctx) override;
@@ -81,6 +84,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
 class PointPersistenceFilter : public FilteringMapManager {
   DEFINE_MRPT_OBJECT(PointPersistenceFilter, dslam)
  public:
+  ~PointPersistenceFilter() override;  ///< logs what it did (Info)
   std::string description() const override;
   std::vector<ParamSpec> paramSpecs() const override;
   void configure(const Params& p, const PluginContext& ctx) override;

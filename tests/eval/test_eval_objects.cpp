@@ -1,0 +1,436 @@
+// `dslam eval objects` / dslam::eval::evaluateObjects: a crafted scene (ground-truth
+// objects.json + groundtruth.txt as `dslam synth` writes them) and crafted run
+// object maps (objects.json "dslam-objects" + trajectory.txt): recall, stale,
+// moved, gone, added and false objects, the alignment, and the bad inputs.
+#include <cmath>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Geometry>
+
+#include "dslam/core/coco.h"
+#include "dslam/eval/objects.h"
+#include "dslam/trajectory/io.h"
+#include "test_support.h"
+
+using namespace dslam;
+using dslam::test::runDslam;
+using dslam::test::tempDir;
+using dslam::test::writeFile;
+using json = nlohmann::json;
+
+namespace {
+
+constexpr int kFrames = 20;
+constexpr double kT0 = 100.0, kDt = 0.1;  // stamps kT0 + f * kDt
+double stamp(int f) { return kT0 + f * kDt; }
+
+SE3 yawPose(double x, double y, double z, double yaw_deg) {
+  return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ())),
+             Eigen::Vector3d(x, y, z));
+}
+
+json trackEntry(int f, const SE3& T) {
+  const auto& q = T.quaternion();
+  const auto& t = T.translation();
+  return json::array({f, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()});
+}
+
+/** One object of a scene objects.json: present over `ranges`, poses `track`,
+ *  `px` visible pixels in every frame it is present. */
+json sceneObject(int id, const std::string& name, const std::string& cls, int cat, std::vector<double> size,
+                 std::vector<std::pair<int, int>> ranges, std::vector<std::pair<int, SE3>> track, int px,
+                 bool labelled = true) {
+  json pr = json::array(), tr = json::array(), vis = json::array();
+  for (auto [a, b] : ranges) pr.push_back({a, b});
+  for (auto& [f, T] : track) tr.push_back(trackEntry(f, T));
+  for (int f = 0; f < kFrames; f++) {
+    bool on = false;
+    for (auto [a, b] : ranges) on = on || (f >= a && f <= b);
+    vis.push_back(on ? px : 0);
+  }
+  return {{"instance_id", id}, {"name", name}, {"kind", "object"},  {"type", "box"},
+          {"class", cls},      {"category_id", cat}, {"labelled", labelled}, {"size", size},
+          {"moving", false},   {"present", pr},  {"track", tr},      {"visible_pixels", vis}};
+}
+
+// The crafted scene: sizes and final poses.
+const SE3 kChair = yawPose(2, 0, 0, 0);           // static chair 0.5 x 0.5 x 1.0
+const SE3 kTv = yawPose(3, 1, 0.75, 90);          // static tv 0.2 x 0.6 x 0.4
+const SE3 kSuitOld = yawPose(1, -1, 0, 0);        // suitcase 0.25 x 0.5 x 0.7, moved during frames 8..10
+const SE3 kSuitNew = yawPose(1.35, -1.3, 0, 30);  // 0.19 m from the old centre
+const SE3 kPlant = yawPose(0, -2, 0, 0);          // potted plant 0.5 x 0.5 x 1.1, removed at frame 10
+const SE3 kBackpack = yawPose(0, 2, 0, 0);        // backpack 0.2 x 0.3 x 0.45, replaced at frame 10 by
+const SE3 kChairNew = yawPose(0, 2, 0, 45);       // chair_new 0.5 x 0.5 x 0.9
+const SE3 kCup = yawPose(-2, 0, 0.7, 0);          // cup never seen (0 px)
+
+Eigen::Vector3d centre(const SE3& T, double h) { return T * Eigen::Vector3d(0, 0, h / 2); }
+
+/** Camera path: not collinear (the alignment is determined before frame 8). */
+Trajectory groundTruth() {
+  Trajectory t;
+  for (int f = 0; f < kFrames; f++)
+    t.push_back(stamp(f), SE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * f, Eigen::Vector3d::UnitZ())),
+                              Eigen::Vector3d(0.2 * f, 0.3 * std::sin(0.7 * f), 1.2 + 0.2 * std::cos(0.5 * f))));
+  return t;
+}
+
+std::string writeScene(const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  json objs = json::array();
+  objs.push_back(sceneObject(1, "chair", "chair", 62, {0.5, 0.5, 1.0}, {{0, 19}}, {{0, kChair}}, 1000));
+  objs.push_back(sceneObject(2, "tv", "tv", 72, {0.2, 0.6, 0.4}, {{0, 19}}, {{0, kTv}}, 1000));
+  std::vector<std::pair<int, SE3>> suit = {{0, kSuitOld}};
+  suit.push_back({9, yawPose(1.2, -1.15, 0, 15)});
+  suit.push_back({10, kSuitNew});
+  objs.push_back(sceneObject(3, "suitcase", "suitcase", 33, {0.25, 0.5, 0.7}, {{0, 19}}, suit, 500));
+  objs.push_back(sceneObject(4, "plant", "potted plant", 64, {0.5, 0.5, 1.1}, {{0, 9}}, {{0, kPlant}}, 500));
+  objs.push_back(sceneObject(5, "backpack", "backpack", 27, {0.2, 0.3, 0.45}, {{0, 9}}, {{0, kBackpack}}, 500));
+  objs.push_back(sceneObject(6, "chair_new", "chair", 62, {0.5, 0.5, 0.9}, {{10, 19}}, {{10, kChairNew}}, 500));
+  objs.push_back(sceneObject(7, "cup", "cup", 47, {0.1, 0.1, 0.1}, {{0, 19}}, {{0, kCup}}, 0));
+  objs.push_back(sceneObject(8, "desk", "desk", 0, {0.8, 1.6, 0.75}, {{0, 19}}, {{0, yawPose(3, -1, 0, 0)}}, 5000,
+                             false));
+  json events = json::array();
+  events.push_back({{"type", "moved"}, {"object", "suitcase"}, {"instance_id", 3}, {"frames", {8, 10}},
+                    {"timestamps", {stamp(8), stamp(10)}}, {"to", {1.35, -1.3, 0}}});
+  events.push_back({{"type", "removed"}, {"object", "plant"}, {"instance_id", 4}, {"frames", {10, 10}},
+                    {"timestamps", {stamp(10), stamp(10)}}});
+  events.push_back({{"type", "replaced"}, {"object", "backpack"}, {"instance_id", 5}, {"by", "chair_new"},
+                    {"by_instance_id", 6}, {"frames", {10, 10}}, {"timestamps", {stamp(10), stamp(10)}}});
+  const json root = {{"scenario", "crafted"}, {"frames", kFrames}, {"rate", 10},  {"start_time", kT0},
+                     {"objects", objs},       {"people", json::array()}, {"events", events}};
+  writeFile(dir + "/objects.json", root.dump(1));
+  traj::writeTum(dir + "/groundtruth.txt", groundTruth(), "crafted");
+  return dir;
+}
+
+json estObject(int64_t id, int cls, const Eigen::Vector3d& c, bool active, int map = 0) {
+  return {{"id", id},
+          {"map", map},
+          {"class_id", cls},
+          {"class", coco::name(cls)},
+          {"centroid", {c.x(), c.y(), c.z()}},
+          {"box_min", {c.x() - 0.1, c.y() - 0.1, c.z() - 0.1}},
+          {"box_max", {c.x() + 0.1, c.y() + 0.1, c.z() + 0.1}},
+          {"points", 40},
+          {"belief", active ? 0.9 : 0.1},
+          {"active", active},
+          {"first_seen_kf", 1},
+          {"last_seen_kf", 9},
+          {"first_seen_t", 100.1},
+          {"last_seen_t", 101.5},
+          {"sightings", 5}};
+}
+
+/** A perfect object map in the world frame: every present object at its box
+ *  centre, the objects that left inactive at their old places. */
+std::vector<json> perfectMap() {
+  return {estObject(1, 62, centre(kChair, 1.0), true),
+          estObject(2, 72, centre(kTv, 0.4), true),
+          estObject(3, 33, centre(kSuitNew, 0.7), true),
+          estObject(4, 33, centre(kSuitOld, 0.7), false),
+          estObject(5, 64, centre(kPlant, 1.1), false),
+          estObject(6, 27, centre(kBackpack, 0.45), false),
+          estObject(7, 62, centre(kChairNew, 0.9), true)};
+}
+
+/** A run folder: objects (positions in the world frame) and the trajectory,
+ *  both expressed in the frame T_ew * world. */
+std::string writeRun(const std::string& dir, const std::vector<json>& objects, const SE3& T_ew = SE3(),
+                     int map = 0) {
+  std::filesystem::create_directories(dir);
+  json objs = json::array();
+  for (json o : objects) {
+    for (const char* k : {"centroid", "box_min", "box_max"}) {
+      const Eigen::Vector3d p(o[k][0].get<double>(), o[k][1].get<double>(), o[k][2].get<double>());
+      const Eigen::Vector3d q = T_ew * p;
+      o[k] = {q.x(), q.y(), q.z()};
+    }
+    objs.push_back(o);
+  }
+  writeFile(dir + "/objects.json",
+            json({{"format", "dslam-objects"}, {"version", 1}, {"map", map}, {"objects", objs}}).dump(1));
+  Trajectory t = groundTruth();
+  for (auto& p : t.poses) p = T_ew * p;
+  traj::writeTum(dir + "/trajectory.txt", t, "crafted run");
+  return dir;
+}
+
+eval::ObjectEvalResult evaluate(const std::string& run, const std::string& scene,
+                                eval::Align align = eval::Align::SE3) {
+  eval::ObjectEvalOptions o;
+  o.align = align;
+  const Trajectory t = align == eval::Align::None ? Trajectory() : traj::readTum(run + "/trajectory.txt");
+  return eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"), t, o);
+}
+
+const eval::GtObjectResult& gt(const eval::ObjectEvalResult& r, const std::string& name) {
+  for (const auto& g : r.gt)
+    if (g.name == name) return g;
+  throw std::runtime_error("no ground-truth object " + name);
+}
+
+void expectPerfect(const eval::ObjectEvalResult& r) {
+  EXPECT_EQ(r.static_total, 2);  // chair, tv (the cup was never seen, the desk is unlabelled)
+  EXPECT_EQ(r.static_found, 2);
+  EXPECT_DOUBLE_EQ(r.recall(), 1.0);
+  EXPECT_EQ(r.stale, 0);
+  EXPECT_EQ(r.moved_total, 1);
+  EXPECT_EQ(r.moved_found, 1);
+  ASSERT_EQ(r.moved_errors.size(), 1u);
+  EXPECT_NEAR(r.moved_errors[0], 0, 1e-9);
+  EXPECT_NEAR(r.moved_centre_errors[0], 0, 1e-6);
+  EXPECT_EQ(r.gone_total, 2);  // plant, backpack
+  EXPECT_EQ(r.gone_inactive, 2);
+  EXPECT_EQ(r.added_total, 1);  // chair_new
+  EXPECT_EQ(r.added_found, 1);
+  EXPECT_EQ(r.false_objects, 0);
+  EXPECT_EQ(gt(r, "suitcase").match, 3);
+  EXPECT_EQ(gt(r, "chair_new").match, 7);
+  EXPECT_EQ(gt(r, "cup").counted, false);
+  ASSERT_EQ(gt(r, "suitcase").old_places.size(), 1u);
+  EXPECT_EQ(gt(r, "suitcase").old_places[0].frame, 7);
+  EXPECT_EQ(gt(r, "suitcase").old_places[0].state, "inactive");
+}
+
+}  // namespace
+
+TEST(EvalObjects, BoxDistanceAndCentre) {
+  eval::ObjectBox b{yawPose(1, 2, 0, 90), Eigen::Vector3d(0.4, 1.0, 0.6)};
+  EXPECT_TRUE(b.centre().isApprox(Eigen::Vector3d(1, 2, 0.3)));
+  EXPECT_DOUBLE_EQ(b.distance(Eigen::Vector3d(1, 2, 0.3)), 0);
+  // Yaw 90: the box's x (0.4) is along world y, its y (1.0) along world x.
+  EXPECT_NEAR(b.distance(Eigen::Vector3d(1.7, 2, 0.3)), 0.2, 1e-12);
+  EXPECT_NEAR(b.distance(Eigen::Vector3d(1, 2.5, 0.3)), 0.3, 1e-12);
+  EXPECT_NEAR(b.distance(Eigen::Vector3d(1, 2, 1.0)), 0.4, 1e-12);
+}
+
+TEST(EvalObjects, PerfectMapHasRecallOneAndNoStaleObject) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  expectPerfect(evaluate(writeRun(d + "/run", perfectMap()), scene));
+}
+
+TEST(EvalObjects, ObjectLeftAtItsOldPlaceIsStale) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  m[3]["active"] = true;  // the suitcase's old object is still active
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.stale, 1);
+  EXPECT_EQ(r.moved_found, 1);  // the new one still matches
+  EXPECT_EQ(r.false_objects, 0);
+  EXPECT_EQ(gt(r, "suitcase").old_places[0].state, "active");
+  ASSERT_EQ(gt(r, "suitcase").old_places[0].est.size(), 1u);
+  EXPECT_EQ(gt(r, "suitcase").old_places[0].est[0], 4);
+
+  // Only the old object (the map never noticed the move): its centroid is
+  // within the match radius of the new box (0.19 m) but nearer the old place,
+  // so it is not a match of the moved object: missed, and stale.
+  m.erase(m.begin() + 2);
+  const auto r2 = evaluate(writeRun(d + "/run2", m), scene);
+  EXPECT_EQ(r2.stale, 1);
+  EXPECT_EQ(r2.moved_found, 0);
+  EXPECT_EQ(gt(r2, "suitcase").match, -1);
+}
+
+TEST(EvalObjects, VanishedAndReplacedObjectsStillActiveAreStale) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  m[4]["active"] = true;  // plant
+  m[5]["active"] = true;  // backpack (replaced by a chair)
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.stale, 2);
+  EXPECT_EQ(r.gone_total, 2);
+  EXPECT_EQ(r.gone_inactive, 0);
+  EXPECT_EQ(r.added_found, 1);
+  EXPECT_EQ(gt(r, "plant").old_places[0].state, "active");
+}
+
+TEST(EvalObjects, MovedObjectCentroidErrorIsTheDistanceToItsBox) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  // 7 cm outside the suitcase's new box along its x axis (half width 0.125).
+  const Eigen::Vector3d c = kSuitNew * Eigen::Vector3d(0.125 + 0.07, 0, 0.35);
+  m[2] = estObject(3, 33, c, true);
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.moved_found, 1);
+  ASSERT_EQ(r.moved_errors.size(), 1u);
+  EXPECT_NEAR(r.moved_errors[0], 0.07, 1e-6);
+  EXPECT_NEAR(r.moved_centre_errors[0], 0.195, 1e-6);
+  EXPECT_EQ(r.stale, 0);
+  // 0.6 m away: outside the match radius, a false object and a missed move.
+  m[2] = estObject(3, 33, kSuitNew * Eigen::Vector3d(0.125 + 0.6, 0, 0.35), true);
+  const auto r2 = evaluate(writeRun(d + "/run2", m), scene);
+  EXPECT_EQ(r2.moved_found, 0);
+  EXPECT_EQ(r2.false_objects, 1);
+}
+
+TEST(EvalObjects, FalseDuplicateOtherMapAndUnevaluatedClasses) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  m.push_back(estObject(20, 47, Eigen::Vector3d(-1, -1, 0.5), true));   // a cup where there is none
+  m.push_back(estObject(21, 62, centre(kChair, 1.0) + Eigen::Vector3d(0.05, 0, 0), true));  // duplicate chair
+  m.push_back(estObject(22, 62, Eigen::Vector3d(-1, 1, 0.5), true, 1));  // another map: not evaluated
+  m.push_back(estObject(23, 1, Eigen::Vector3d(0, 0, 1), true));        // person: not evaluated
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.false_objects, 2);
+  EXPECT_EQ(r.est_other_maps, 1u);
+  EXPECT_EQ(r.est.size(), m.size() - 1);
+  EXPECT_EQ(r.static_found, 2);
+  EXPECT_EQ(r.stale, 0);
+  bool duplicate = false;
+  for (const auto& e : r.est) {
+    if (e.obj.id == 21) {
+      EXPECT_EQ(e.verdict, eval::Verdict::False);
+      duplicate = e.note.find("duplicate of chair") != std::string::npos;
+    }
+    if (e.obj.id == 23) {
+      EXPECT_EQ(e.verdict, eval::Verdict::Ignored);
+    }
+  }
+  EXPECT_TRUE(duplicate);
+}
+
+TEST(EvalObjects, AlignmentUndoesAKnownOffset) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  const SE3 T_ew(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.3, 1).normalized())),
+                 Eigen::Vector3d(30, -20, 5));
+  const std::string run = writeRun(d + "/run", perfectMap(), T_ew);
+  const auto r = evaluate(run, scene);
+  expectPerfect(r);
+  EXPECT_EQ(r.align_pairs, 8u);  // frames 0..7, before the first event (frame 8)
+  EXPECT_NEAR(r.align_until, stamp(8), 1e-9);
+  EXPECT_LT(r.align_ate, 1e-6);
+  const SE3 back = T_ew.inverse();
+  EXPECT_TRUE(r.alignment.T.translation().isApprox(back.translation(), 1e-6));
+  EXPECT_LT(r.alignment.T.quaternion().angularDistance(back.quaternion()), 1e-6);
+  // Without the alignment nothing is where it should be.
+  const auto n = evaluate(run, scene, eval::Align::None);
+  EXPECT_EQ(n.static_found, 0);
+  EXPECT_GT(n.false_objects, 0);
+}
+
+TEST(EvalObjects, BadInputs) {
+  using dslam::test::dataError;
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  const std::string run = writeRun(d + "/run", perfectMap());
+  auto has = [](const std::string& msg, const std::string& part) {
+    EXPECT_NE(msg.find(part), std::string::npos) << "'" << part << "' not in: " << msg;
+  };
+  has(dataError([&] { eval::readEstObjects(d + "/none.json"); }), "objects file not found");
+  has(dataError([&] { eval::readEstObjects(scene + "/objects.json"); }), "ground-truth objects.json of the dslam synth");
+  writeFile(d + "/other.json", R"({"format": "something", "version": 1})");
+  has(dataError([&] { eval::readEstObjects(d + "/other.json"); }), "expected \"dslam-objects\"");
+  writeFile(d + "/v2.json", R"({"format": "dslam-objects", "version": 2, "map": 0, "objects": []})");
+  has(dataError([&] { eval::readEstObjects(d + "/v2.json"); }), "unsupported version 2");
+  writeFile(d + "/syntax.json", "{\"format\": \"dslam-objects\",\n \"version\": 1,,}");
+  has(dataError([&] { eval::readEstObjects(d + "/syntax.json"); }), "syntax.json:2:");
+  auto one = [&](const std::string& obj) {
+    writeFile(d + "/one.json", R"({"format": "dslam-objects", "version": 1, "map": 0, "objects": [)" + obj + "]}");
+    return dataError([&] { eval::readEstObjects(d + "/one.json"); });
+  };
+  const std::string c = R"("centroid": [0, 0, 0], "active": true)";
+  has(one(R"({"id": 4, "class_id": 300, )" + c + "}"), "objects[0] (id 4): unknown class id 300");
+  has(one(R"({"id": 4, "class": "chiar", )" + c + "}"), "unknown class 'chiar'");
+  has(one(R"({"id": 4, "class_id": 62, "class": "couch", )" + c + "}"), "class 'couch' is not the name of class id 62");
+  has(one(R"({"id": 4, "class_id": 62, "active": true})"), "missing 'centroid'");
+  has(one(R"({"id": 4, "class_id": 62, "centroid": [1, 2], "active": true})"), "'centroid' must be [x, y, z]");
+
+  has(dataError([&] { eval::readScene(d + "/nothere"); }), "scene folder not found");
+  std::filesystem::create_directories(d + "/empty");
+  has(dataError([&] { eval::readScene(d + "/empty"); }), "no objects.json");
+  std::filesystem::create_directories(d + "/nogt");
+  std::filesystem::copy_file(scene + "/objects.json", d + "/nogt/objects.json");
+  has(dataError([&] { eval::readScene(d + "/nogt"); }), "no groundtruth.txt");
+
+  // Trajectory of another scene: other stamps; or the same stamps, another path.
+  const auto sc = eval::readScene(scene);
+  const auto est = eval::readEstObjects(run + "/objects.json");
+  Trajectory far = groundTruth();
+  for (auto& t : far.stamps) t += 1000;
+  has(dataError([&] { eval::evaluateObjects(sc, est, far); }), "the run and the scene do not match");
+  Trajectory other = groundTruth();
+  for (size_t i = 0; i < other.size(); i++)
+    other.poses[i] = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(std::cos(0.9 * i), 2 * std::sin(1.3 * i), 0));
+  const std::string m = dataError([&] { eval::evaluateObjects(sc, est, other); });
+  has(m, "the run and the scene do not match: ATE rmse");
+  // Too few poses before the first event.
+  eval::ObjectEvalOptions o;
+  o.align_until = stamp(2);
+  has(dataError([&] { eval::evaluateObjects(sc, est, groundTruth(), o); }), "only 2 trajectory poses before");
+}
+
+TEST(EvalObjects, SceneFolderGivenAsRunAndRunAsScene) {
+  using dslam::test::dataError;
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  const std::string run = writeRun(d + "/run", perfectMap());
+  std::filesystem::copy_file(scene + "/groundtruth.txt", run + "/groundtruth.txt");
+  const std::string m = dataError([&] { eval::readScene(run); });
+  EXPECT_NE(m.find("this is a run's object map"), std::string::npos) << m;
+}
+
+TEST(EvalObjectsCli, TextAndJson) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  m[3]["active"] = true;
+  const std::string run = writeRun(d + "/run", m, yawPose(1, 2, 0, 30));
+  const auto r = runDslam("eval objects '" + run + "' '" + scene + "' --json '" + d + "/out.json'");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("recall (static objects)   2/2 = 1.000"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stale objects             1 (target 0)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("moved objects found       1/1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("old object active (stale)"), std::string::npos) << r.out;
+  const json j = json::parse(dslam::test::readFile(d + "/out.json"));
+  EXPECT_EQ(j["metric"], "objects");
+  EXPECT_EQ(j["recall"].get<double>(), 1.0);
+  EXPECT_EQ(j["stale"].get<int>(), 1);
+  EXPECT_EQ(j["align_poses"].get<int>(), 8);
+  EXPECT_EQ(j["gone_inactive"].get<int>(), 2);
+  // The objects file itself instead of the folder: the same.
+  const auto r2 = runDslam("eval objects '" + run + "/objects.json' '" + scene + "'");
+  EXPECT_EQ(r2.exit_code, 0) << r2.out;
+  EXPECT_NE(r2.out.find("stale objects             1"), std::string::npos) << r2.out;
+}
+
+TEST(EvalObjectsCli, EmptyMapWarnsAndScoresZero) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  const std::string run = writeRun(d + "/run", {});
+  const auto r = runDslam("eval objects '" + run + "' '" + scene + "' 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("no objects in map 0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("recall (static objects)   0/2 = 0.000"), std::string::npos) << r.out;
+}
+
+TEST(EvalObjectsCli, ErrorsExitNonZeroWithTheFile) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  // The scene folder as the run: its objects.json is the ground truth.
+  auto r = runDslam("eval objects '" + scene + "' '" + scene + "' 2>&1");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("ground-truth objects.json of the dslam synth scene"), std::string::npos) << r.out;
+  // A run folder without objects.json.
+  std::filesystem::create_directories(d + "/run");
+  r = runDslam("eval objects '" + d + "/run' '" + scene + "' 2>&1");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("has no objects.json"), std::string::npos) << r.out;
+  // No trajectory next to the objects file.
+  writeRun(d + "/run", perfectMap());
+  std::filesystem::remove(d + "/run/trajectory.txt");
+  r = runDslam("eval objects '" + d + "/run' '" + scene + "' 2>&1");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("no trajectory.txt next to"), std::string::npos) << r.out;
+  // ... which --align none does not need.
+  r = runDslam("eval objects '" + d + "/run' '" + scene + "' --align none 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("recall (static objects)   2/2"), std::string::npos) << r.out;
+}
