@@ -138,7 +138,7 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
   // beyond the centroid by occlusion_margin), not onto something there.
   const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);
   const float cy0 = y0 + 0.25f * (y1 - y0), cy1 = y1 - 0.25f * (y1 - y0);
-  int support = 0, with_depth = 0, through = 0;
+  int support = 0, with_depth = 0, through = 0, other = 0;
   for (size_t i = 0; i < kf.size(); i++) {
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
@@ -148,10 +148,15 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
     if (i < kf.depth.size() && kf.depth[i] > 0) {
       with_depth++;
       if (kf.depth[i] > z + occlusion_margin_) through++;
+      // ... or onto another object standing where it stood.
+      const KeypointMeta* km = kf.meta.empty() ? nullptr : &kf.meta[i];
+      if (km && km->label != KpLabel::Dynamic && km->class_id > 1 && km->class_id <= kLastCocoThing &&
+          km->class_id != o.class_id && std::abs(kf.depth[i] - z) <= occlusion_margin_)
+        other++;
     }
   }
   return support < min_support_points_ && with_depth >= min_place_keypoints_ &&
-         through >= min_free_fraction_ * with_depth;
+         (through >= min_free_fraction_ * with_depth || other >= min_free_fraction_ * with_depth);
 }
 
 bool ObjectPersistenceFilter::longTerm(const KeyFrame& kf, int64_t last_kf, double last_t) const {
@@ -207,6 +212,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     MapObject& o = *op;
     if (seen.count(id)) continue;
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
+    o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     if (placeInViewAndFree(*kf, o)) {
       o.belief = objectBeliefMissed(o.belief, belief_);
       stats_.misses++;
