@@ -128,13 +128,29 @@ PY
   replace_block kitti "$OUT/kitti.block"
 }
 
+# speed: config/studies/speed.yaml one run at a time (timing), the table of
+# scripts/bench_speed.py (frames/s, tracking ms, worst frame, local BA, memory).
+speed() {
+  local dir="$OUT/speed"
+  run "$DSLAM" ablate config/studies/speed.yaml --out "$dir" --jobs 1 --resume || true
+  [ "$DRY" = 1 ] && return 0
+  {
+    echo "    scripts/bench_speed.sh OUT   # dslam ablate config/studies/speed.yaml --out OUT --jobs 1; scripts/bench_speed.py OUT"
+    echo
+    echo "Produced by $VERSION: 5 runs of each pipeline, one at a time; median (min-max) over the runs."
+    echo
+    python3 scripts/bench_speed.py "$dir" | sed 's/ | frames\/s \/ reference |$/ |/; s/ | [0-9.na]* |$/ |/; s/^|---|---|---|---|---|---|---|---|---|---|$/|---|---|---|---|---|---|---|---|---|/'
+  } > "$OUT/speed.block"
+  replace_block speed "$OUT/speed.block"
+}
+
 for s in "${SECTIONS[@]}"; do
   echo "== $s ($VERSION)" >&2
   case "$s" in
     matrix) study matrix config/studies/dynamic_matrix.yaml "ate speed" ;;
     ablation) study ablation config/studies/afc_repopulation.yaml "ate speed" ;;
     static) study static config/studies/static_scenes.yaml "ate speed" ;;
-    speed) JOBS=1 study speed config/studies/speed.yaml "speed" ;;  # timing: one run at a time
+    speed) speed ;;
     kitti) kitti ;;
   esac
 done
