@@ -5,7 +5,8 @@
 #                                            see ASAN_EXCLUDE below)
 #   scripts/sanitize.sh tsan                 TSan build in build-tsan, runs parallel-mode
 #                                            pipelines (detector threads, local mapping, loop
-#                                            closing, map merge) on short rendered scenes
+#                                            closing, map merge after a tracking loss,
+#                                            persistence filters) on short rendered scenes
 # Any sanitizer report fails the run (halt_on_error / exitcode). Needs the shared folder.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -51,6 +52,8 @@ tsan)
   run changing_slam_dynamic changing_slam_dynamic.yaml "$WX"  # detector thread + EKF classifier
   run baseline_parallel orbslam_baseline.yaml "$WX"           # local mapping thread
   run loop_parallel orbslam_baseline.yaml "$(render loop 1000)"  # loop closing thread + global BA
+  # lights out: tracking lost, a new map, merged back; persistence filters on the mapping thread
+  run changing_dark synthetic/changing_slam.yaml "$(render shift_dark 450)"
   echo "tsan: clean"
   ;;
 *)

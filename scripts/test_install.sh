@@ -89,8 +89,10 @@ PY
 
 step "my_classifier_plugin (loaded by the installed dslam through plugin_dirs)"
 [ -f "$TMP/build_my_classifier_plugin/plugins/libmy_classifier.so" ] || fail "plugin library not built"
-DSLAM_PLUGIN_PATH="$TMP/build_my_classifier_plugin/plugins" dslam plugins | grep -q "my::BorderFilter" \
-  || fail "dslam plugins does not list my::BorderFilter"
+# (the listing is captured first: with pipefail, grep -q closing the pipe early
+# would fail the pipeline once the listing outgrows the pipe buffer)
+listing=$(DSLAM_PLUGIN_PATH="$TMP/build_my_classifier_plugin/plugins" dslam plugins) || fail "dslam plugins failed"
+grep -q "my::BorderFilter" <<< "$listing" || fail "dslam plugins does not list my::BorderFilter"
 dslam run "$TMP/build_my_classifier_plugin/my_pipeline.yaml" --dataset "$TMP/wx" --out "$TMP/run_plugin" \
   --no-progress > "$TMP/run_plugin.log" 2>&1 || { cat "$TMP/run_plugin.log"; fail "dslam run with the plug-in"; }
 grep -q "my::BorderFilter" "$TMP/run_plugin/config.resolved.yaml" || fail "the run did not use the plug-in"

@@ -45,34 +45,6 @@ std::string describe(const json& v) {
   return t;
 }
 
-json parseJsonFile(const std::string& file) {
-  std::ifstream f(file, std::ios::binary);
-  if (!f) throw DataError("cannot open " + file);
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  const std::string text = ss.str();
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    const size_t pos = std::min<size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    size_t line = 1, col = 1;
-    for (size_t i = 0; i < pos; i++) {
-      if (text[i] == '\n') {
-        line++;
-        col = 1;
-      } else {
-        col++;
-      }
-    }
-    std::string what = e.what();
-    if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
-    throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " + what);
-  } catch (const json::exception& e) {
-    std::string what = e.what();
-    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    throw DataError(file + ": invalid JSON: " + what);
-  }
-}
 
 /** Typed access with errors naming the file and the element. */
 struct At {

@@ -25,35 +25,6 @@ namespace dslam::labels {
 
 namespace detail {
 
-json parseJsonFile(const std::string& file) {
-  std::ifstream f(file, std::ios::binary);
-  if (!f) throw DataError("cannot open " + file + (fileExists(file) ? " (permission?)" : " (missing)"));
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  const std::string text = ss.str();
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    // byte offset -> line:column
-    const size_t pos = std::min<size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    size_t line = 1, col = 1;
-    for (size_t i = 0; i < pos; i++) {
-      if (text[i] == '\n') {
-        line++;
-        col = 1;
-      } else {
-        col++;
-      }
-    }
-    std::string what = e.what();
-    if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
-    throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " + what);
-  } catch (const json::exception& e) {  // e.g. out_of_range: "number overflow parsing '1e58140'"
-    std::string what = e.what();
-    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    throw DataError(file + ": invalid JSON: " + what);
-  }
-}
 
 std::string describe(const json& v) {
   std::string t = v.dump();

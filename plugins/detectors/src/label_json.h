@@ -9,13 +9,15 @@
 #include <vector>
 
 #include "dslam/core/detection.h"
+#include "dslam/core/json_layout.h"
 
 namespace dslam::labels::detail {
 
 using json = nlohmann::json;
 
-/** Parses a JSON file; a syntax error names the file, line and column. */
-json parseJsonFile(const std::string& file);
+/** JSON files are read by dslam::parseJsonFile (core/json_layout.h): a
+ *  syntax error names the file, line and column. */
+using dslam::parseJsonFile;
 
 /** Where a value sits in a file, for messages: "f.json: boxes[3].bbox". */
 struct At {

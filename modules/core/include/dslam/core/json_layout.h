@@ -3,7 +3,8 @@
  *  Readable JSON files: the first `depth` levels of objects and arrays one
  *  member per line, everything deeper on one line (so long per-frame arrays
  *  do not take one line per number). Every value is printed by nlohmann::json
- *  (escaping, numbers); only the line breaks are chosen here. */
+ *  (escaping, numbers); only the line breaks are chosen here. Also the one
+ *  JSON file reader with file:line:column errors. */
 #include <nlohmann/json_fwd.hpp>
 
 #include <string>
@@ -12,5 +13,9 @@ namespace dslam {
 
 std::string layoutJson(const nlohmann::ordered_json& j, int depth);
 std::string layoutJson(const nlohmann::json& j, int depth);
+
+/** Reads and parses a JSON file. DataError naming the file (missing /
+ *  unreadable), and for a syntax error its line:column. */
+nlohmann::json parseJsonFile(const std::string& file);
 
 }  // namespace dslam
