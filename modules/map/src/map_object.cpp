@@ -144,14 +144,29 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
                                         const std::vector<ObjectCandidate>& candidates, int64_t kf_id, double t,
                                         const LtdaParams& p, int64_t& next_id) {
   std::vector<LtdaMatch> out(candidates.size());
-  // Every (distance, candidate, object) pair within the threshold, nearest first.
+  // Every (distance, candidate, object) pair within the threshold, nearest
+  // first; objects bucketed by class and a grid of threshold-sized cells, so
+  // the cost grows linearly with the number of objects.
+  const double cell = std::max(p.threshold_m, 1e-6);
+  auto cellOf = [cell](double v) { return static_cast<int64_t>(std::floor(v / cell)); };
+  std::map<std::tuple<int, int64_t, int64_t, int64_t>, std::vector<int64_t>> grid;
+  for (const auto& [id, o] : objects)
+    grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(id);
   std::vector<std::tuple<double, size_t, int64_t>> pairs;
-  for (size_t c = 0; c < candidates.size(); c++)
-    for (const auto& [id, o] : objects)
-      if (o->class_id == candidates[c].class_id) {
-        const double d = (o->centroid - candidates[c].centroid).norm();
-        if (d < p.threshold_m) pairs.emplace_back(d, c, id);
-      }
+  for (size_t c = 0; c < candidates.size(); c++) {
+    const Eigen::Vector3d& x = candidates[c].centroid;
+    const int64_t cx = cellOf(x.x()), cy = cellOf(x.y()), cz = cellOf(x.z());
+    for (int64_t i = cx - 1; i <= cx + 1; i++)
+      for (int64_t j = cy - 1; j <= cy + 1; j++)
+        for (int64_t k = cz - 1; k <= cz + 1; k++) {
+          auto it = grid.find({candidates[c].class_id, i, j, k});
+          if (it == grid.end()) continue;
+          for (int64_t id : it->second) {
+            const double d = (objects.at(id)->centroid - x).norm();
+            if (d < p.threshold_m) pairs.emplace_back(d, c, id);
+          }
+        }
+  }
   std::sort(pairs.begin(), pairs.end());
   std::vector<char> used_c(candidates.size(), 0);
   std::map<int64_t, char> used_o;
