@@ -38,9 +38,13 @@ tsan)
   B=build-tsan/bin/dslam
   W="${TMPDIR:-/tmp}/dslam-tsan"
   mkdir -p "$W"
+  # Scenes are rendered by the normal build when there is one (the renderer
+  # under TSan runs at ~1 frame/s); the pipelines run under TSan.
+  R=build/bin/dslam
+  [ -x "$R" ] || R=$B
   render() {  # scenario frames -> folder (rendered once)
     [ -f "$W/$1_$2/groundtruth.txt" ] ||
-      $B synth "config/scenarios/$1.yaml" --out "$W/$1_$2" --frames "$2" --resolution 320x240 --overwrite >/dev/null
+      $R synth "config/scenarios/$1.yaml" --out "$W/$1_$2" --frames "$2" --resolution 320x240 --overwrite >/dev/null
     echo "$W/$1_$2"
   }
   run() {  # name pipeline dataset
