@@ -51,13 +51,6 @@ void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eig
 
 namespace {
 
-bool objectClass(int c, const LtdaParams& p) {
-  if (c < 0) return false;
-  if (std::find(p.ignore_classes.begin(), p.ignore_classes.end(), c) != p.ignore_classes.end()) return false;
-  if (p.classes.empty()) return c <= kLastCocoThing;  // stuff (walls, floor) makes no objects
-  return std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
-}
-
 /** Single-linkage clusters of `idx` (positions into pts) with radius r. */
 std::vector<std::vector<size_t>> clusters(const std::vector<Eigen::Vector3d>& pts, double r) {
   const size_t n = pts.size();
@@ -83,6 +76,13 @@ std::vector<std::vector<size_t>> clusters(const std::vector<Eigen::Vector3d>& pt
 
 }  // namespace
 
+bool isObjectClass(int c, const LtdaParams& p) {
+  if (c < 0) return false;
+  if (std::find(p.ignore_classes.begin(), p.ignore_classes.end(), c) != p.ignore_classes.end()) return false;
+  if (p.classes.empty()) return c <= kLastCocoThing;  // stuff (walls, floor) makes no objects
+  return std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
+}
+
 std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p) {
   // (class, instance) -> keypoint indices, in keypoint order.
   std::map<std::pair<int, int>, std::vector<size_t>> groups;
@@ -98,7 +98,7 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
       c = mp->class_id;
       inst = mp->object_id;
     }
-    if (!objectClass(c, p) || mp->label == KpLabel::Dynamic) continue;
+    if (!isObjectClass(c, p) || mp->label == KpLabel::Dynamic) continue;
     groups[{c, inst}].push_back(i);
   }
   std::vector<ObjectCandidate> out;
@@ -149,9 +149,9 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
   // the cost grows linearly with the number of objects.
   const double cell = std::max(p.threshold_m, 1e-6);
   auto cellOf = [cell](double v) { return static_cast<int64_t>(std::floor(v / cell)); };
-  std::map<std::tuple<int, int64_t, int64_t, int64_t>, std::vector<int64_t>> grid;
+  std::map<std::tuple<int, int64_t, int64_t, int64_t>, std::vector<const MapObject*>> grid;
   for (const auto& [id, o] : objects)
-    grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(id);
+    grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(o.get());
   std::vector<std::tuple<double, size_t, int64_t>> pairs;
   for (size_t c = 0; c < candidates.size(); c++) {
     const Eigen::Vector3d& x = candidates[c].centroid;
@@ -161,9 +161,9 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
         for (int64_t k = cz - 1; k <= cz + 1; k++) {
           auto it = grid.find({candidates[c].class_id, i, j, k});
           if (it == grid.end()) continue;
-          for (int64_t id : it->second) {
-            const double d = (objects.at(id)->centroid - x).norm();
-            if (d < p.threshold_m) pairs.emplace_back(d, c, id);
+          for (const MapObject* o : it->second) {
+            const double d = (o->centroid - x).norm();
+            if (d < p.threshold_m) pairs.emplace_back(d, c, o->id);
           }
         }
   }
@@ -174,7 +174,8 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
     if (used_c[c] || used_o[id]) continue;
     used_c[c] = 1;
     used_o[id] = 1;
-    out[c] = {c, id, false, d, objects.at(id)->last_seen_kf};
+    const MapObject& o = *objects.at(id);
+    out[c] = {c, id, false, d, o.last_seen_kf, o.last_seen_t};
   }
   for (size_t c = 0; c < candidates.size(); c++) {
     const ObjectCandidate& cand = candidates[c];
@@ -189,7 +190,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
       o->first_seen_t = t;
       o->first_box = cand.box;
       objects[o->id] = o;
-      out[c] = {c, o->id, true, 0.0, -1};
+      out[c] = {c, o->id, true, 0.0, -1, 0.0};
     }
     for (const auto& mp : cand.points) {
       o->points[mp->id] = mp;

@@ -150,8 +150,8 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
       if (kf.depth[i] > z + occlusion_margin_) through++;
       // ... or onto another object standing where it stood.
       const KeypointMeta* km = kf.meta.empty() ? nullptr : &kf.meta[i];
-      if (km && km->label != KpLabel::Dynamic && km->class_id > 1 && km->class_id <= kLastCocoThing &&
-          km->class_id != o.class_id && std::abs(kf.depth[i] - z) <= occlusion_margin_)
+      if (km && km->label != KpLabel::Dynamic && isObjectClass(km->class_id, ltda_) && km->class_id != o.class_id &&
+          std::abs(kf.depth[i] - z) <= occlusion_margin_)
         other++;
     }
   }
@@ -179,8 +179,6 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   stats_.keyframes++;
   auto& objects = m->objects();
   const auto candidates = objectCandidates(*kf, ltda_);
-  std::map<int64_t, double> previous_t;  // last sighting time before this keyframe
-  for (const auto& [id, o] : objects) previous_t[id] = o->last_seen_t;
   const auto matches = associateObjects(objects, candidates, kf->id, kf->timestamp, ltda_, Map::objectIdCounter());
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
@@ -195,7 +193,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
     const bool was_dormant = o.dormant;
     o.dormant = false;
-    if (was_dormant || longTerm(*kf, mt.previous_seen_kf, previous_t[o.id])) {
+    if (was_dormant || longTerm(*kf, mt.previous_seen_kf, mt.previous_seen_t)) {
       o.belief = objectBeliefSighted(o.belief, mt.distance, static_cast<int>(o.numPoints()), belief_);
       stats_.sightings++;
     }

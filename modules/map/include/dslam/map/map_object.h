@@ -80,6 +80,10 @@ struct LtdaParams {
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
 };
 
+/** Whether keypoints of class `c` make objects: a COCO thing (or one of
+ *  `classes`), not one of `ignore_classes`. */
+bool isObjectClass(int c, const LtdaParams& p);
+
 /** The object candidates of a keyframe: its map points whose keypoints carry
  *  a class (KeypointMeta of the keyframe or the point's own class), grouped
  *  by (class, instance id), points without an instance id clustered. */
@@ -92,6 +96,7 @@ struct LtdaMatch {
   bool created = false;
   double distance = 0;               ///< centroid distance to the object it was merged into
   int64_t previous_seen_kf = -1;     ///< the object's last sighting before this one (-1: created now)
+  double previous_seen_t = 0;        ///< its time (0: created now)
 };
 
 /** Algorithm 1: merges each candidate into the nearest same-class object
