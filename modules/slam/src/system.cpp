@@ -623,8 +623,8 @@ void System::writeObjects(const std::string& json_path, const std::string& ply_p
   for (const auto& o : boxes) {
     const int r = o->active ? 40 : 220, g = o->active ? 200 : 40;
     for (int k = 0; k < 8; k++) {
-      std::snprintf(buf, sizeof(buf), "%.5f %.5f %.5f %d %d 40\n", k & 1 ? o->box_max.x() : o->box_min.x(),
-                    k & 2 ? o->box_max.y() : o->box_min.y(), k & 4 ? o->box_max.z() : o->box_min.z(), r, g);
+      const Eigen::Vector3d c = o->corner(k);
+      std::snprintf(buf, sizeof(buf), "%.5f %.5f %.5f %d %d 40\n", c.x(), c.y(), c.z(), r, g);
       f << buf;
     }
   }

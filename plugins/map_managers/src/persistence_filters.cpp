@@ -122,9 +122,7 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
   // Image rectangle of its 3D box (every corner in front of the camera).
   float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
   for (int k = 0; k < 8; k++) {
-    const Eigen::Vector3d X(k & 1 ? o.box_max.x() : o.box_min.x(), k & 2 ? o.box_max.y() : o.box_min.y(),
-                            k & 4 ? o.box_max.z() : o.box_min.z());
-    const Eigen::Vector3d Xc = kf.T_cw() * X;
+    const Eigen::Vector3d Xc = kf.T_cw() * o.corner(k);
     if (Xc.z() < 0.05) return false;
     const float u = static_cast<float>(kf.cam.fx * Xc.x() / Xc.z() + kf.cam.cx);
     const float v = static_cast<float>(kf.cam.fy * Xc.y() / Xc.z() + kf.cam.cy);

@@ -49,6 +49,10 @@ struct MapObject {
    *  Returns the number of points left. */
   size_t refresh();
   size_t numPoints() const { return points.size(); }
+  /** Corner k (0-7) of the 3D box: bit 0 picks max x, bit 1 max y, bit 2 max z. */
+  Eigen::Vector3d corner(int k) const {
+    return {k & 1 ? box_max.x() : box_min.x(), k & 2 ? box_max.y() : box_min.y(), k & 4 ? box_max.z() : box_min.z()};
+  }
   /** Sets `active` on the object and on every one of its points. */
   void setActive(bool a);
 };
