@@ -340,3 +340,65 @@ TEST(EkfObjectTracker, LostTrackIsDroppedAndComesBackAsNew) {
   ekf->reset();
   EXPECT_TRUE(ekf->tracks().empty());
 }
+
+TEST(EkfObjectTracker, BoxCutByTheImageBorderIsNoEvidenceOfMotion) {
+  // A static 1.6 m table whose right part is outside the image: the detector's
+  // box is cut at the border, and as the camera moves the cut box's centre
+  // slides over the table at half the table's image speed (apparent motion
+  // ~0.1 m/s). With the paper's rule alone the table is flagged moving; with
+  // the border guard and the significance test it is static.
+  Scene s;
+  s.objs = {{67, {2.0, 0.3, 3.0}, {0, 0, 0}, 1.6, 0.6}};
+  auto run = [&](const std::string& yaml) {
+    auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "speed_threshold: {default: 0.05}\n" + yaml, &s.cam);
+    std::vector<KeypointMeta> m;
+    for (int k = 0; k < 60; k++) {
+      Frame f;
+      Detections d;
+      ClassifierContext ctx = s.frame(k, f, d);
+      for (auto& b : d.boxes) b.box &= cv::Rect2f(0, 0, 640, 480);  // the detector sees the visible part only
+      if (k > 0) ctx.previous_T_wc = s.pose(k - 1);
+      ekf->classify(f, d, ctx);
+      m.push_back(f.meta[1]);
+      ekf->afterTracking(f, d, s.pose(k));
+    }
+    return m;
+  };
+  // (The keypoint at the table's centre enters the image at frame 13.)
+  const auto guarded = run("");
+  for (int k = 13; k < 60; k++) EXPECT_EQ(guarded[k].label, KpLabel::Movable) << k;
+  const auto paper = run("truncated_margin: -1\nmoving_chi2: 0");
+  int moving = 0;
+  for (int k = 13; k < 60; k++) moving += paper[k].reason == KpReason::ObjectMoving;
+  EXPECT_GT(moving, 25);
+}
+
+TEST(EkfObjectTracker, DepthJumpIsGatedRepeatedJumpsRestartTheTrack) {
+  // A static chair whose central depth jumps by 1 m for 2 frames (the window
+  // sees the wall through the backrest), then for good (it was another
+  // surface all along): the 2-frame jump is not fused, the lasting one
+  // restarts the track (new object, dynamic until proven static).
+  Scene s;
+  s.objs = {{62, {0.0, 0.0, 3.0}, {0, 0, 0}, 0.5, 0.8}};
+  auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "", &s.cam);
+  int restarted_at = -1;
+  for (int k = 0; k < 60; k++) {
+    Frame f;
+    Detections d;
+    ClassifierContext ctx = s.frame(k, f, d);
+    if ((k >= 20 && k < 22) || k >= 40) f.input.depth.setTo(4.0f, f.input.depth < 5.0f);
+    ekf->classify(f, d, ctx);
+    ekf->afterTracking(f, d, s.pose(k));
+    ASSERT_EQ(ekf->tracks().size(), 1u) << k;
+    const TrackedObject& t = ekf->tracks()[0];
+    if (k == 25) {
+      EXPECT_NEAR(t.x(2), 3.0, 0.01);  // the short jump left no trace
+      EXPECT_FALSE(t.dynamic);
+      EXPECT_LT(t.speed(), 0.01);
+    }
+    if (restarted_at < 0 && k >= 40 && t.updates == 1) restarted_at = k;
+  }
+  EXPECT_EQ(restarted_at, 40 + 2);  // max_gated: 3 consecutive gated measurements
+  EXPECT_NEAR(ekf->tracks()[0].x(2), 4.0, 0.05);
+  EXPECT_FALSE(ekf->tracks()[0].dynamic);  // proven static again after the restart
+}

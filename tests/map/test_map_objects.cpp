@@ -103,3 +103,58 @@ TEST(MapObject, LongTermDataAssociationMergesNearAndCreatesFar) {
   objects.at(100)->setActive(false);
   EXPECT_FALSE(b[0]->active);
 }
+
+TEST(MapObject, SharedPointsDecideTheObjectWhateverThePartialViewsCentroid) {
+  std::map<int64_t, MapObjectPtr> objects;
+  LtdaParams p;  // threshold 0.25 m, 3 shared points
+  int64_t next = 1;
+  // A desk seen first at its left end: 20 points around x = 0.
+  auto left = blob({0, 0, 0}, 20, 0, 0.3, 67);
+  associateObjects(objects, {candidate(67, left)}, 1, 1.0, p, next);
+  ASSERT_EQ(objects.size(), 1u);
+  // Later its right end (centroid 0.9 m away) with 4 tracked points of the left end.
+  auto right = blob({0.9, 0, 0}, 16, 100, 0.3, 67);
+  std::vector<MapPointPtr> view = right;
+  view.insert(view.end(), left.begin(), left.begin() + 4);
+  auto r = associateObjects(objects, {candidate(67, view)}, 2, 2.0, p, next);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_FALSE(r[0].created);
+  EXPECT_EQ(r[0].object, 1);
+  EXPECT_EQ(objects.at(1)->numPoints(), 36u);
+  // Two shared points are not enough: a new object (centroid too far for Algorithm 1).
+  auto far = blob({2.5, 0, 0}, 16, 200, 0.3, 67);
+  std::vector<MapPointPtr> view2 = far;
+  view2.insert(view2.end(), right.begin(), right.begin() + 2);
+  r = associateObjects(objects, {candidate(67, view2)}, 3, 3.0, p, next);
+  EXPECT_TRUE(r[0].created);
+  // ... and shared points of another class do not count.
+  auto plant = blob({0.1, 0, 0}, 10, 300, 0.3, 64);
+  std::vector<MapPointPtr> view3 = plant;
+  view3.insert(view3.end(), left.begin() + 4, left.begin() + 10);
+  r = associateObjects(objects, {candidate(64, view3)}, 4, 4.0, p, next);
+  EXPECT_TRUE(r[0].created);
+}
+
+TEST(MapObject, OverlappingPartsOfOneObjectMerge) {
+  std::map<int64_t, MapObjectPtr> objects;
+  LtdaParams p;
+  p.min_shared_points = 1000;  // keep the parts apart at association
+  int64_t next = 10;
+  auto a = blob({0, 0, 0}, 40, 0, 1.0, 67);      // a 1 m table ...
+  auto b = blob({0.3, 0.1, 0}, 10, 100, 0.2, 67);  // ... a part of it, 0.3 m from its centre
+  auto c = blob({3, 0, 0}, 10, 200, 0.2, 67);    // another table
+  auto d = blob({0.2, 0, 0}, 10, 300, 0.2, 62);  // a chair at the table
+  associateObjects(objects, {candidate(67, a)}, 1, 1.0, p, next);
+  associateObjects(objects, {candidate(67, b), candidate(67, c), candidate(62, d)}, 2, 2.0, p, next);
+  ASSERT_EQ(objects.size(), 4u);
+  objects.at(12)->active = false;  // not eligible: left alone even where it overlaps
+  const size_t merged = mergeOverlappingObjects(objects, [](const MapObject& o) { return o.active; });
+  EXPECT_EQ(merged, 1u);
+  ASSERT_EQ(objects.size(), 3u);
+  EXPECT_EQ(objects.at(10)->numPoints(), 50u);  // the older id keeps both
+  EXPECT_EQ(objects.at(10)->sightings, 2);
+  EXPECT_EQ(objects.at(10)->last_seen_kf, 2);
+  EXPECT_EQ(b[0]->map_object, 10);
+  EXPECT_TRUE(objects.count(12));  // the far table
+  EXPECT_TRUE(objects.count(13));  // the chair: another class
+}

@@ -44,11 +44,27 @@ struct Scene {
    *  object's points are not seen (the wall behind them is). Every keypoint
    *  is associated with the world point's map point (created if new);
    *  object keypoints carry the chair class. */
-  KeyFramePtr keyframe(double t, const SE3& T_cw, bool object_present, bool associate_object = true) {
+  std::vector<MapPointPtr> other;  ///< points of the other surface (Other::Texture)
+
+  /** What stands where the object was when it is not present. */
+  enum class Other { Nothing, Texture };
+
+  KeyFramePtr keyframe(double t, const SE3& T_cw, bool object_present, bool associate_object = true,
+                       bool label_object = true, Other instead = Other::Nothing) {
     test::SynthWorld view{0};
-    std::vector<int> index;  // view point -> world point
+    std::vector<int> index;  // view point -> world point (-1 - i: the other surface at object point i)
     for (size_t i = 0; i < world.w.X.size(); i++) {
-      if (!object_present && World::onObject(static_cast<int>(i))) continue;
+      const bool on = World::onObject(static_cast<int>(i));
+      if (!object_present && on) {
+        if (instead == Other::Texture) {  // a surface at the same place and depth, other texture, no class
+          view.X.push_back(world.w.X[i]);
+          Descriptor d = world.w.desc[i];
+          for (auto& b : d) b = static_cast<uint8_t>(~b);
+          view.desc.push_back(d);
+          index.push_back(-1 - static_cast<int>(i));
+        }
+        continue;
+      }
       view.X.push_back(world.w.X[i]);
       view.desc.push_back(world.w.desc[i]);
       index.push_back(static_cast<int>(i));
@@ -57,10 +73,23 @@ struct Scene {
     Frame f = view.frame(T_cw, static_cast<int>(t * 30), &seen);
     f.input.timestamp = t;
     for (size_t k = 0; k < seen.size(); k++)
-      if (World::onObject(index[seen[k]])) f.meta[k].class_id = kChair;
+      if (index[seen[k]] >= 0 && World::onObject(index[seen[k]]) && label_object) f.meta[k].class_id = kChair;
     auto kf = std::make_shared<KeyFrame>(Map::nextKeyFrameId(), f, T_cw, view.cam, view.scale, map.get());
+    other.resize(kObjectPoints);
     for (size_t k = 0; k < seen.size(); k++) {
       const int i = index[seen[k]];
+      if (i < 0) {  // the other surface: its own map points
+        MapPointPtr& mp = other[static_cast<size_t>(-1 - i)];
+        if (!mp) {
+          mp = std::make_shared<MapPoint>(Map::nextPointId(), world.w.X[static_cast<size_t>(-1 - i)], kf.get(), map.get());
+          map->addPoint(mp);
+        }
+        kf->addPoint(mp, static_cast<int>(k));
+        mp->addObservation(kf.get(), static_cast<int>(k));
+        mp->computeDistinctiveDescriptor();
+        mp->updateNormalAndDepth();
+        continue;
+      }
       if (World::onObject(i) && !associate_object) continue;
       MapPointPtr& mp = points[i];
       if (!mp) {
@@ -266,4 +295,93 @@ TEST(PointPersistenceFilter, MissedPointsGoInactiveAndComeBackOnADescriptorMatch
   EXPECT_TRUE(gone->active);
   EXPECT_LE(back, 3);  // a match after many misses could be a false alarm (p 0.01): one or two more settle it
   EXPECT_GT(filter->stats().reactivated, 0);
+}
+
+TEST(ObjectPersistenceFilter, PointsNotFoundAgainAreNegativeEvidenceWithoutSeeingThrough) {
+  // The chair is gone and something else stands at the same depth (a floor,
+  // another object of no class): its points are in view and not found (other
+  // texture). The see-through test is switched off (min_free_fraction 1: some
+  // wall shows between the sparse points of the other surface).
+  for (const bool point_evidence : {true, false}) {
+    auto atlas = std::make_shared<Atlas>();
+    auto filter = makeFilter<ObjectPersistenceFilter>(
+        point_evidence ? "{dormant_after_s: 0, min_free_fraction: 1}"
+                       : "{dormant_after_s: 0, min_free_fraction: 1, min_found_fraction: 0}",
+        atlas);
+    Scene s(filter->currentMap());
+    filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+    const MapObject& o = onlyObject(*s.map);
+    double t = 3.0;
+    for (int k = 0; k < 3; k++, t += 0.5)
+      filter->onKeyFrame(s.keyframe(t, poseAt({0.02 * k, 0, 0}), false, true, true, Scene::Other::Texture));
+    EXPECT_EQ(o.active, !point_evidence) << point_evidence;
+    if (point_evidence) {
+      EXPECT_LT(o.belief, 0.2);
+      EXPECT_GE(filter->stats().misses, 2);
+    } else {
+      EXPECT_EQ(filter->stats().misses, 0);
+    }
+  }
+}
+
+TEST(ObjectPersistenceFilter, PointsFoundAgainWakeADormantObjectWithoutADetection) {
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObject& o = onlyObject(*s.map);
+  filter->onTrackingLost(s.map);
+  ASSERT_TRUE(o.dormant);
+  // Back after 3 s: the detector misses it (no class on its keypoints) and
+  // tracking did not match its points (inactive), but their descriptors are there.
+  filter->onKeyFrame(s.keyframe(3.0, poseAt({0.03, 0, 0}), true, false, false));
+  EXPECT_TRUE(o.active);
+  EXPECT_FALSE(o.dormant);
+  EXPECT_GT(o.belief, 0.5);
+  EXPECT_EQ(filter->stats().woken, 1);
+  EXPECT_EQ(s.map->objects().size(), 1u);  // no candidate, no new object
+}
+
+TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablishedPoints) {
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{}", atlas);
+  Scene s(filter->currentMap());
+  // A frame seeing the chair (its keypoints labelled, with depth), nothing matched.
+  test::SynthWorld view = s.world.w;
+  std::vector<int> seen;
+  Frame f = view.frame(poseAt({0, 0, 0}), 30, &seen);
+  f.input.timestamp = 1.0;
+  int on = 0;
+  for (size_t k = 0; k < seen.size(); k++)
+    if (World::onObject(seen[k])) {
+      f.meta[k].class_id = kChair;
+      f.meta[k].object_id = 7;
+      on++;
+    }
+  ASSERT_GE(on, 10);
+  std::vector<MapPointPtr> matched(f.size());
+  EXPECT_TRUE(filter->wantsKeyFrame(f, matched));
+  f.input.timestamp = 1.5;  // within new_object_keyframe_gap (1 s): once is enough
+  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  // Matched to established points (seen by 3 keyframes): nothing to ask for.
+  f.input.timestamp = 3.0;
+  auto kf1 = s.keyframe(0.0, poseAt({0, 0, 0}), true);
+  auto kf2 = s.keyframe(0.1, poseAt({0, 0, 0}), true);
+  for (size_t k = 0; k < seen.size(); k++)
+    if (World::onObject(seen[k])) {
+      auto mp = std::make_shared<MapPoint>(Map::nextPointId(), s.world.w.X[static_cast<size_t>(seen[k])], kf1.get(),
+                                           s.map.get());
+      mp->addObservation(kf1.get(), 0);  // two RGB-D keyframes: 4 observations
+      mp->addObservation(kf2.get(), 0);
+      matched[k] = mp;
+    }
+  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  // Dynamic keypoints (a person, a moving object) ask for nothing.
+  std::fill(matched.begin(), matched.end(), nullptr);
+  for (auto& m : f.meta) m.label = KpLabel::Dynamic;
+  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  EXPECT_EQ(filter->stats().keyframe_requests, 1);
+  auto off = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 0}", atlas);
+  for (auto& m : f.meta) m.label = KpLabel::Static;
+  EXPECT_FALSE(off->wantsKeyFrame(f, matched));
 }

@@ -152,7 +152,22 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
   std::map<std::tuple<int, int64_t, int64_t, int64_t>, std::vector<const MapObject*>> grid;
   for (const auto& [id, o] : objects)
     grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(o.get());
-  std::vector<std::tuple<double, size_t, int64_t>> pairs;
+  // (rank, distance, candidate, object): rank 0 = the candidate shares map
+  // points with the object (its points were tracked and already belong to
+  // it: the same object whatever part of it this view shows), ranked by
+  // the share; rank 1 = centroid distance only (Algorithm 1).
+  std::vector<std::tuple<int, double, size_t, int64_t>> pairs;
+  for (size_t c = 0; c < candidates.size(); c++) {
+    std::map<int64_t, int> shared;
+    for (const auto& mp : candidates[c].points)
+      if (mp && mp->map_object >= 0) shared[mp->map_object]++;
+    for (const auto& [id, n] : shared) {
+      auto it = objects.find(id);
+      if (it == objects.end() || it->second->class_id != candidates[c].class_id) continue;
+      if (static_cast<size_t>(n) < std::max<size_t>(p.min_shared_points, 1)) continue;
+      pairs.emplace_back(-n, (it->second->centroid - candidates[c].centroid).norm(), c, id);
+    }
+  }
   for (size_t c = 0; c < candidates.size(); c++) {
     const Eigen::Vector3d& x = candidates[c].centroid;
     const int64_t cx = cellOf(x.x()), cy = cellOf(x.y()), cz = cellOf(x.z());
@@ -163,14 +178,14 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
           if (it == grid.end()) continue;
           for (const MapObject* o : it->second) {
             const double d = (o->centroid - x).norm();
-            if (d < p.threshold_m) pairs.emplace_back(d, c, o->id);
+            if (d < p.threshold_m) pairs.emplace_back(1, d, c, o->id);
           }
         }
   }
   std::sort(pairs.begin(), pairs.end());
   std::vector<char> used_c(candidates.size(), 0);
   std::map<int64_t, char> used_o;
-  for (const auto& [d, c, id] : pairs) {
+  for (const auto& [rank, d, c, id] : pairs) {
     if (used_c[c] || used_o[id]) continue;
     used_c[c] = 1;
     used_o[id] = 1;
@@ -204,6 +219,47 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
     o->refresh();
   }
   return out;
+}
+
+size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
+                               size_t min_points) {
+  auto inside = [](const Eigen::Vector3d& x, const MapObject& o) {
+    return (x.array() >= o.box_min.array()).all() && (x.array() <= o.box_max.array()).all();
+  };
+  size_t merges = 0;
+  for (auto a = objects.begin(); a != objects.end(); ++a) {
+    MapObject& A = *a->second;
+    if (A.numPoints() < min_points || !eligible(A)) continue;
+    for (auto b = std::next(a); b != objects.end();) {
+      MapObject& B = *b->second;
+      if (B.class_id != A.class_id || B.numPoints() < min_points || !eligible(B) ||
+          !(inside(B.centroid, A) || inside(A.centroid, B))) {
+        ++b;
+        continue;
+      }
+      for (const auto& [id, mp] : B.points) {
+        A.points[id] = mp;
+        mp->map_object = A.id;
+        mp->active = A.active;
+      }
+      A.sightings += B.sightings;
+      A.belief = std::max(A.belief, B.belief);
+      if (B.first_seen_kf >= 0 && (A.first_seen_kf < 0 || B.first_seen_t < A.first_seen_t)) {
+        A.first_seen_kf = B.first_seen_kf;
+        A.first_seen_t = B.first_seen_t;
+        A.first_box = B.first_box;
+      }
+      if (B.last_seen_t > A.last_seen_t) {
+        A.last_seen_kf = B.last_seen_kf;
+        A.last_seen_t = B.last_seen_t;
+        A.current_box = B.current_box;
+      }
+      A.refresh();
+      b = objects.erase(b);
+      merges++;
+    }
+  }
+  return merges;
 }
 
 }  // namespace dslam

@@ -485,7 +485,14 @@ FrameResult System::track(const SensorFrame& in) {
   timer_.add("frame", fi, res.ms_total);
   if (kf_observer_ && res.track.keyframe) kf_observer_(*copy, dets);
 
-  if (res.track.state == TrackState::Ok && !res.track.keyframe) checkPlaceRecognition();
+  if (res.track.state == TrackState::Ok && !res.track.keyframe) {
+    checkPlaceRecognition();
+    const TrackedFrame& lf = tracker_->lastFrame();
+    std::vector<MapPointPtr> matched(lf.points.size());
+    for (size_t i = 0; i < lf.points.size(); i++)
+      if (lf.points[i] && !lf.outlier[i]) matched[i] = lf.points[i];
+    if (maps_->wantsKeyFrame(lf.f, matched)) tracker_->requestKeyFrame();
+  }
   if (mode_ == config::Mode::Sequential) {
     mapper_->processAll();
     if (loop_) loop_->processAll();

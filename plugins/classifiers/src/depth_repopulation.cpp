@@ -30,6 +30,11 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
       P_double("max_center_std", 0.3,
                "depth std (m) of the central window above which the box counts as occluded (chosen default)", 0,
                100),
+      P_enum("occlusion_check", "all", {"all", "dynamic", "none"},
+             "boxes the unlabelled-occluder test applies to: all (default) = every box; dynamic = boxes of "
+             "dynamic_classes only (see-through objects such as chairs and tables, whose centre is deeper than "
+             "their front, keep their keypoints: a fuller object map, but an unlabelled thing in front of a "
+             "labelled object is no longer caught: unknown_object ATE 0.12 -> 0.27 m); none"),
       P_bool("exclude_overlap", true, "leave pixels shared by overlapping boxes out of the statistics (Changing-SLAM 4.1)"),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
@@ -49,6 +54,8 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   exclude_overlap_ = p.getBool("exclude_overlap");
+  const std::string oc = p.getString("occlusion_check");
+  occlusion_ = oc == "dynamic" ? Occlusion::Dynamic : oc == "none" ? Occlusion::None : Occlusion::All;
   stride_ = static_cast<int>(p.getInt("pixel_stride"));
   min_samples_ = static_cast<int>(p.getInt("min_samples"));
 }
@@ -220,11 +227,12 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     st.center_depth = c.n > 0 ? c.median : 0.f;
     st.center_std = c.stddev;
     const bool enough = s.n >= min_samples_;
-    if (enough && c.n > 0)
+    const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
+    const bool check = occlusion_ == Occlusion::All || (occlusion_ == Occlusion::Dynamic && dyn_class);
+    if (check && enough && c.n > 0)
       st.occluded = st.center_depth > st.object_depth + st.margin || st.center_std > max_center_std_;
     stats_.push_back(st);
 
-    const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
     for (size_t i = 0; i < frame.size(); i++) {

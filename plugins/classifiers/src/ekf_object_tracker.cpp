@@ -41,6 +41,26 @@ std::vector<ParamSpec> EkfObjectTracker::paramSpecs() const {
       P_double("center_fraction", 0.3,
                "central window of the box (fraction of width/height) whose median depth places the centroid (eq. 8)",
                0.01, 1),
+      P_double("truncated_margin", 5,
+               "a box within this many pixels (plus 5% of its size) of the image border is cut by it: its centre is "
+               "not the object's, its centroid measurement gets the std of half the box's metric size (chosen "
+               "default; -1 = off)",
+               -1, 10000),
+      P_double("size_sigma", 0.0,
+               "added std of the centroid measurement, as a fraction of the box's metric size (the box centre at "
+               "the central depth slides over the object as the view changes; 0 = off, the default: it delays the "
+               "detection of walking people)",
+               0, 10),
+      P_double("moving_chi2", 11.34,
+               "an object proven static becomes moving only if also v' P_v^-1 v exceeds this (its velocity is "
+               "significantly non-zero; 3 d.o.f., 11.34 = 99%; 0 = the paper's rule, speed above the threshold only)",
+               0, 1e9),
+      P_double("gate_chi2", 11.34,
+               "innovation gate: a centroid measurement whose squared Mahalanobis distance exceeds this (3 d.o.f., "
+               "11.34 = 99%) is not fused (a jump of the depth in the central window, another object); 0 = off",
+               0, 1e9),
+      P_int("max_gated", 3, "after this many consecutive gated measurements the track restarts at the measurement",
+            1, 100000),
       P_bool("label_static_movable", true, "keypoints on tracked static objects are Movable (OnObject)"),
   };
 }
@@ -65,6 +85,11 @@ void EkfObjectTracker::configure(const Params& p, const PluginContext& ctx) {
   max_missed_ = static_cast<int>(p.getInt("max_missed"));
   center_fraction_ = p.getDouble("center_fraction");
   movable_ = p.getBool("label_static_movable");
+  truncated_margin_ = p.getDouble("truncated_margin");
+  gate_chi2_ = p.getDouble("gate_chi2");
+  size_sigma_ = p.getDouble("size_sigma");
+  moving_chi2_ = p.getDouble("moving_chi2");
+  max_gated_ = static_cast<int>(p.getInt("max_gated"));
   if (ctx.camera) {
     camera_ = *ctx.camera;
     have_camera_ = true;
@@ -92,6 +117,16 @@ const TrackedObject* EkfObjectTracker::track(int id) const {
   for (const auto& t : tracks_)
     if (t.id == id) return &t;
   return nullptr;
+}
+
+bool EkfObjectTracker::truncated(const cv::Rect2f& box, const Frame& f) const {
+  if (truncated_margin_ < 0) return false;
+  const cv::Size sz = cls::imageSize(f, have_camera_ ? &camera_ : nullptr);
+  // A detector's box edges jitter by a few percent of the box size.
+  const float mx = static_cast<float>(truncated_margin_) + 0.05f * box.width,
+              my = static_cast<float>(truncated_margin_) + 0.05f * box.height;
+  return box.x <= mx || box.y <= my || box.x + box.width >= static_cast<float>(sz.width) - mx ||
+         box.y + box.height >= static_cast<float>(sz.height) - my;
 }
 
 bool EkfObjectTracker::tracked(const BoundingBox& b) const {
@@ -222,6 +257,64 @@ void EkfObjectTracker::classify(Frame& frame, const Detections& det, const Class
   }
 }
 
+bool EkfObjectTracker::fuse(TrackedObject& o, const Eigen::Vector3d& zc, const cv::Rect2f& box, const SE3& T_wc,
+                            double t_now, double fallback_dt) const {
+  const SE3 T_cw = T_wc.inverse();
+  const Eigen::Matrix3d R_cw = T_cw.rotation();
+  double dt = t_now - o.time;
+  if (!(dt > 0)) dt = fallback_dt;
+  // Predict: constant velocity, random acceleration (Changing-SLAM 4.4).
+  Mat6 F = Mat6::Identity();
+  F.block<3, 3>(0, 3) = dt * Eigen::Matrix3d::Identity();
+  const double q = sigmaAccel(o.class_id) * sigmaAccel(o.class_id);
+  Mat6 Q = Mat6::Zero();
+  const Eigen::Matrix3d I3 = Eigen::Matrix3d::Identity();
+  Q.block<3, 3>(0, 0) = q * dt * dt * dt * dt / 4 * I3;
+  Q.block<3, 3>(0, 3) = q * dt * dt * dt / 2 * I3;
+  Q.block<3, 3>(3, 0) = q * dt * dt * dt / 2 * I3;
+  Q.block<3, 3>(3, 3) = q * dt * dt * I3;
+  o.x = F * o.x;
+  o.P = F * o.P * F.transpose() + Q;
+  // Update: camera-frame centroid, h(x) = R_cw p + t_cw.
+  Eigen::Matrix<double, 3, 6> H = Eigen::Matrix<double, 3, 6>::Zero();
+  H.block<3, 3>(0, 0) = R_cw;
+  const Eigen::Vector3d y = zc - (T_cw * Eigen::Vector3d(o.x.head<3>()));
+  // The box centre at the central depth is not a fixed point of the object: it slides over it as the view
+  // changes, by a fraction of the object's size.
+  const double size_m = std::max(box.width, box.height) * zc.z() / std::max(1e-9, camera_.left.fx);
+  const double sv = size_sigma_ * size_m;
+  const Eigen::Matrix3d R = (meas_sigma_ * meas_sigma_ + sv * sv) * I3;
+  const Eigen::Matrix3d S = H * o.P * H.transpose() + R;
+  o.box = box;
+  o.missed = 0;
+  if (gate_chi2_ > 0 && y.dot(S.ldlt().solve(y)) > gate_chi2_) {
+    // Not this object's motion (the central window's depth jumped to another surface, or another object):
+    // not fused; repeated, the track starts again where the measurements are.
+    if (++o.gated >= max_gated_) {
+      o.x.head<3>() = T_wc * zc;
+      o.x.tail<3>().setZero();
+      o.P = p0_ * Mat6::Identity();
+      o.time = t_now;
+      o.updates = 1;
+      o.gated = 0;
+      o.static_count = 0;
+      if (min_static_ > 0) {
+        o.dynamic = true;
+        o.reason = KpReason::NewObject;
+      }
+    }
+    return false;
+  }
+  o.gated = 0;
+  const Eigen::Matrix<double, 6, 3> K = o.P * H.transpose() * S.inverse();
+  o.x += K * y;
+  const Mat6 IKH = Mat6::Identity() - K * H;
+  o.P = IKH * o.P * IKH.transpose() + K * R * K.transpose();  // Joseph form
+  o.time = t_now;
+  o.updates++;
+  return true;
+}
+
 void EkfObjectTracker::afterTracking(const Frame& frame, const Detections& det, const std::optional<SE3>& T_wc) {
   if (!det.valid || !T_wc) {  // nothing to place in the world: keep the tracks as they are
     pending_ = {};
@@ -237,8 +330,6 @@ void EkfObjectTracker::afterTracking(const Frame& frame, const Detections& det, 
                       ? pending_
                       : associate(frame, det, T_wc);
   pending_ = {};
-  const SE3 T_cw = T_wc->inverse();
-  const Eigen::Matrix3d R_cw = T_cw.rotation();
   const double t_now = frame.timestamp();
   const double fallback_dt = camera_.fps > 0 ? 1.0 / camera_.fps : 1.0 / 30.0;
   std::vector<char> seen(tracks_.size(), 0);
@@ -264,36 +355,23 @@ void EkfObjectTracker::afterTracking(const Frame& frame, const Detections& det, 
       continue;
     }
     TrackedObject& o = tracks_[ti];
-    double dt = t_now - o.time;
-    if (!(dt > 0)) dt = fallback_dt;
-    // Predict: constant velocity, random acceleration (Changing-SLAM 4.4).
-    Mat6 F = Mat6::Identity();
-    F.block<3, 3>(0, 3) = dt * Eigen::Matrix3d::Identity();
-    const double q = sigmaAccel(o.class_id) * sigmaAccel(o.class_id);
-    Mat6 Q = Mat6::Zero();
-    const Eigen::Matrix3d I3 = Eigen::Matrix3d::Identity();
-    Q.block<3, 3>(0, 0) = q * dt * dt * dt * dt / 4 * I3;
-    Q.block<3, 3>(0, 3) = q * dt * dt * dt / 2 * I3;
-    Q.block<3, 3>(3, 0) = q * dt * dt * dt / 2 * I3;
-    Q.block<3, 3>(3, 3) = q * dt * dt * I3;
-    o.x = F * o.x;
-    o.P = F * o.P * F.transpose() + Q;
-    // Update: camera-frame centroid, h(x) = R_cw p + t_cw.
-    Eigen::Matrix<double, 3, 6> H = Eigen::Matrix<double, 3, 6>::Zero();
-    H.block<3, 3>(0, 0) = R_cw;
-    const Eigen::Vector3d y = *zc - (T_cw * Eigen::Vector3d(o.x.head<3>()));
-    const Eigen::Matrix3d R = meas_sigma_ * meas_sigma_ * I3;
-    const Eigen::Matrix3d S = H * o.P * H.transpose() + R;
-    const Eigen::Matrix<double, 6, 3> K = o.P * H.transpose() * S.inverse();
-    o.x += K * y;
-    const Mat6 IKH = Mat6::Identity() - K * H;
-    o.P = IKH * o.P * IKH.transpose() + K * R * K.transpose();  // Joseph form
-    o.time = t_now;
-    o.box = bb.box;
-    o.updates++;
-    o.missed = 0;
+    if (truncated(bb.box, frame)) {
+      // Cut by the image border: the visible part's centre slides over the object as the view changes (a
+      // steady apparent motion), no measurement of where it is. The track follows the box; the decision
+      // below is made on the state as it is (slow: a step towards static).
+      o.box = bb.box;
+      o.missed = 0;
+    } else if (!fuse(o, *zc, bb.box, *T_wc, t_now, fallback_dt)) {
+      continue;  // gated out (or restarted)
+    }
     // Decision (Changing-SLAM 4.5).
-    if (o.speed() > speedThreshold(o.class_id)) {
+    // Ours: an object proven static becomes moving only when its velocity also differs from zero by more
+    // than its uncertainty (a noisy or sliding centroid is no evidence of motion); new and moving objects
+    // keep the paper's rule.
+    const Eigen::Vector3d v = o.x.tail<3>();
+    const bool moving = o.speed() > speedThreshold(o.class_id) &&
+                        (o.dynamic || moving_chi2_ <= 0 || v.dot(o.P.block<3, 3>(3, 3).ldlt().solve(v)) > moving_chi2_);
+    if (moving) {
       o.static_count = 0;
       o.dynamic = true;
       o.reason = KpReason::ObjectMoving;

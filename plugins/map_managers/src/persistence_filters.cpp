@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <set>
+#include <unordered_set>
 
 #include "dslam/core/descriptor.h"
 #include "dslam/core/log.h"
@@ -34,7 +36,9 @@ std::string PersistenceStats::str() const {
   return std::to_string(keyframes) + " keyframes, " + std::to_string(created) + " objects created, " +
          std::to_string(sightings) + " sightings, " + std::to_string(misses) + " misses, " +
          std::to_string(deactivated) + " deactivated, " + std::to_string(reactivated) + " reactivated, " +
-         std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken";
+         std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken" +
+         (keyframe_requests > 0 ? ", " + std::to_string(keyframe_requests) + " keyframes requested" : "") +
+         (merged > 0 ? ", " + std::to_string(merged) + " merged" : "");
 }
 
 // ---------------------------------------------------------------------------
@@ -55,6 +59,10 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
       P_double("cluster_radius", 0.3, "points of one class without an instance id: one candidate per cluster (m)", 0.01,
                100),
       P_int("min_points", 5, "smaller object candidates are ignored", 1, 100000),
+      P_int("min_shared_points", 3,
+            "a candidate sharing this many map points with an object of its class is that object (before the "
+            "centroid test; ours)",
+            1, 100000),
       P_list("classes", ParamType::IntList, "[]", "COCO ids that make objects ([] = every COCO thing, ids 1-91)"),
       P_list("ignore_classes", ParamType::IntList, "[1]", "COCO ids that never make objects (people are dynamic)"),
       P_int("long_term_keyframes", 5,
@@ -87,6 +95,27 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "its place", 1, 100000),
       P_int("min_support", 3, "its points or keypoints of its class on its place: it is there (no negative evidence)",
             1, 100000),
+      P_int("min_expected_points", 8,
+            "point evidence: at least this many of its points (or half of a smaller object's, at least 3) must be "
+            "in view (in range, facing the camera, not occluded by nearer keypoints)",
+            1, 100000),
+      P_double("min_found_fraction", 0.15,
+               "point evidence: fewer of its points in view found again than this fraction is negative evidence "
+               "(it is not there any more)",
+               0, 1),
+      P_double("present_fraction", 0.5,
+               "point evidence: at least this fraction found again is a sighting (wakes a dormant object) even "
+               "without a detection",
+               0, 1),
+      P_double("match_radius", 8.0, "point evidence: pixels around a point's projection searched for it", 1, 1000),
+      P_int("max_descriptor_distance", 50, "point evidence: a keypoint this close (ORB) at the projection is the point",
+            0, 256),
+      P_int("new_object_keypoints", 10,
+            "a detected object with this many keypoints with depth, at most a fifth of them on established map "
+            "points (seen by 3 keyframes), asks for a keyframe (objects seen while tracking needs none get mapped; "
+            "ours; 0 = off)",
+            0, 100000),
+      P_double("new_object_keyframe_gap", 1.0, "at most one such keyframe request per this many seconds", 0, 1e9),
   };
 }
 
@@ -95,6 +124,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   ltda_.threshold_m = p.getDouble("ltda_threshold");
   ltda_.cluster_m = p.getDouble("cluster_radius");
   ltda_.min_points = static_cast<int>(p.getInt("min_points"));
+  ltda_.min_shared_points = static_cast<size_t>(p.getInt("min_shared_points"));
   ltda_.classes = p.getIntList("classes");
   ltda_.ignore_classes = p.getIntList("ignore_classes");
   long_term_keyframes_ = static_cast<int>(p.getInt("long_term_keyframes"));
@@ -112,6 +142,70 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   min_free_fraction_ = p.getDouble("min_free_fraction");
   min_place_keypoints_ = static_cast<int>(p.getInt("min_place_keypoints"));
   min_support_points_ = static_cast<int>(p.getInt("min_support"));
+  min_expected_points_ = static_cast<int>(p.getInt("min_expected_points"));
+  min_found_fraction_ = p.getDouble("min_found_fraction");
+  present_fraction_ = p.getDouble("present_fraction");
+  match_radius_px_ = p.getDouble("match_radius");
+  max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
+  new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
+  new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
+  last_request_t_ = -1e300;
+}
+
+bool ObjectPersistenceFilter::wantsKeyFrame(const Frame& f, const std::vector<MapPointPtr>& matched) {
+  if (new_object_keypoints_ > 0 && f.timestamp() - last_request_t_ >= new_object_gap_s_ && f.meta.size() == f.size()) {
+    // (class, tracker id) -> (keypoints, matched to established points)
+    std::map<std::pair<int, int>, std::pair<int, int>> by_object;
+    for (size_t i = 0; i < f.size(); i++) {
+      const KeypointMeta& m = f.meta[i];
+      if (m.label == KpLabel::Dynamic || !isObjectClass(m.class_id, ltda_)) continue;
+      if (i >= f.depth.size() || !(f.depth[i] > 0)) continue;
+      auto& n = by_object[{m.class_id, m.object_id}];
+      n.first++;
+      n.second += i < matched.size() && matched[i] && matched[i]->numObservations() >= 3;
+    }
+    for (const auto& [key, n] : by_object)
+      if (n.first >= new_object_keypoints_ && 5 * n.second <= n.first) {
+        last_request_t_ = f.timestamp();
+        stats_.keyframe_requests++;
+        return true;
+      }
+  }
+  return FilteringMapManager::wantsKeyFrame(f, matched);
+}
+
+ObjectPersistenceFilter::PointEvidence ObjectPersistenceFilter::pointEvidence(
+    const KeyFrame& kf, const MapObject& o, const std::unordered_set<const MapPoint*>& kf_points) const {
+  PointEvidence ev;
+  const Eigen::Vector3d cam_center = kf.center();
+  const float r = static_cast<float>(match_radius_px_);
+  for (const auto& [id, p] : o.points) {
+    if (!p || p->bad) continue;
+    cv::Point2f uv;
+    double z = 0;
+    if (!projectInto(kf, p->pos, uv, z) || z > max_range_) continue;
+    if ((p->pos - cam_center).normalized().dot(p->normal) < 0.5) continue;  // seen from its back or far off its view
+    if (kf_points.count(p.get())) {
+      ev.expected++;
+      ev.found++;
+      continue;
+    }
+    bool any_depth = false, occluded = false, match = false;
+    for (size_t i : kf.featuresInArea(uv.x, uv.y, r)) {
+      const float d = i < kf.depth.size() ? kf.depth[i] : 0.f;
+      if (d <= 0) continue;
+      any_depth = true;
+      if (d < z - occlusion_margin_) occluded = true;
+      if (std::abs(d - z) <= occlusion_margin_ &&
+          descriptorDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)), p->desc.data()) <=
+              max_descriptor_distance_)
+        match = true;
+    }
+    if (occluded || !any_depth) continue;  // hidden, or nothing to tell
+    ev.expected++;
+    ev.found += match;
+  }
+  return ev;
 }
 
 bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const {
@@ -204,12 +298,35 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       stats_.deactivated++;
     }
   }
+  // Partial views of one object that association kept apart become one.
+  stats_.merged += mergeOverlappingObjects(objects, [this](const MapObject& o) {
+    return o.active && !o.dormant && o.belief >= belief_threshold_;
+  });
+  std::unordered_set<const MapPoint*> kf_points;
+  for (const auto& p : kf->points)
+    if (p) kf_points.insert(p.get());
   for (auto& [id, op] : objects) {
     MapObject& o = *op;
     if (seen.count(id)) continue;
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
-    if (placeInViewAndFree(*kf, o)) {
+    const PointEvidence ev = pointEvidence(*kf, o, kf_points);
+    // A small object has few points to expect: half of them (at least 3) suffice.
+    const int need = std::min(min_expected_points_, std::max(3, static_cast<int>(o.numPoints() / 2)));
+    const bool judged = ev.expected >= need;
+    if (judged && ev.found >= present_fraction_ * ev.expected) {
+      // Its points are there although no candidate was made of them (detector miss, labels): a sighting.
+      const bool was_dormant = o.dormant;
+      o.dormant = false;
+      o.belief = objectBeliefSighted(o.belief, 0.0, static_cast<int>(o.numPoints()), belief_);
+      o.last_seen_kf = kf->id;
+      o.last_seen_t = kf->timestamp;
+      stats_.sightings++;
+      if (was_dormant) stats_.woken++;
+      if (!o.active && o.belief >= belief_threshold_) o.setActive(true);
+      continue;
+    }
+    if (placeInViewAndFree(*kf, o) || (judged && ev.found < min_found_fraction_ * ev.expected)) {
       o.belief = objectBeliefMissed(o.belief, belief_);
       stats_.misses++;
       if (o.belief < belief_threshold_) {

@@ -12,6 +12,7 @@ namespace dslam {
 
 class Map;
 class MapPoint;
+struct Frame;
 class KeyFrame;
 struct CameraIntrinsics;
 struct ScaleLevels;
@@ -43,6 +44,16 @@ class MapManager : public Plugin {
    *  lock the map to change it): what was seen before may have changed by
    *  the time the camera relocalises. */
   virtual void onTrackingLost(const std::shared_ptr<Map>& m) { (void)m; }
+  /** Called in the tracking thread after a tracked frame that did not become
+   *  a keyframe (`matched[i]`: the map point keypoint i is matched to, null
+   *  for none and for outliers): true makes the next frame a keyframe, if
+   *  mapping accepts one (an object filter asks when a detected object the
+   *  map has too few established points on is in view). */
+  virtual bool wantsKeyFrame(const Frame& f, const std::vector<std::shared_ptr<MapPoint>>& matched) {
+    (void)f;
+    (void)matched;
+    return false;
+  }
   /** Map managers that filter another one (persistence filters) keep its
    *  maps and add their own decisions; the pipeline gives each filter the
    *  map manager listed before it (or a dslam::Atlas). */

@@ -14,9 +14,12 @@
  *  keyframe's labelled points are grouped into object candidates; a
  *  candidate is merged into the existing object of the same class whose
  *  centroid is closest and nearer than `ltda_threshold` (points combined),
- *  otherwise it becomes a new object. Changes of belief are the map
+ *  otherwise it becomes a new object. Ours: a candidate that shares map
+ *  points with an object of its class is that object, wherever its partial
+ *  view puts the centroid. Changes of belief are the map
  *  manager's (persistence filters, dslam/map/persistence.h). */
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -80,6 +83,7 @@ struct LtdaParams {
   double threshold_m = 0.25;      ///< same class and centroids closer than this: the same object
   double cluster_m = 0.3;         ///< points without an instance id: one candidate per cluster of this radius
   int min_points = 5;             ///< smaller candidates are ignored
+  size_t min_shared_points = 3;   ///< a candidate with this many of an object's points is that object
   std::vector<int> classes;       ///< classes that make objects ([] = every COCO thing, ids 1-91, except ignore_classes)
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
 };
@@ -105,11 +109,20 @@ struct LtdaMatch {
 
 /** Algorithm 1: merges each candidate into the nearest same-class object
  *  within the threshold (nearest first, one candidate per object), or
+ *  before that (ours) into the same-class object it shares at least
+ *  `min_shared_points` map points with (most shared first), or
  *  creates a new object (id from `next_id`). Marks every map point with its
  *  object id and class; sets last_seen / sightings / current_box. Returns one
  *  entry per candidate, in candidate order. */
 std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects,
                                         const std::vector<ObjectCandidate>& candidates, int64_t kf_id, double t,
                                         const LtdaParams& p, int64_t& next_id);
+
+/** Merges objects of one class that are one object seen in parts: the
+ *  centroid of one inside the other's 3D box (both `eligible`, both with
+ *  min_points). The older object (smaller id) takes the points, sightings
+ *  and times of the newer one, which is erased. Returns the merges. */
+size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
+                               size_t min_points = 5);
 
 }  // namespace dslam

@@ -34,7 +34,10 @@ struct BoxDepthStats {
  *  the depth at the box centre (median of the central window) is deeper
  *  than object depth + margin, i.e. the nearest surface in the box is not
  *  the detected object, or the central window's depth std exceeds
- *  `max_center_std` (no single surface at the box centre).
+ *  `max_center_std` (no single surface at the box centre). The test applies
+ *  to every box by default; `occlusion_check: dynamic` limits it to boxes of
+ *  `dynamic_classes` (the centre of a chair or a table is deeper than its
+ *  front by nature, so the test drops them whole).
  *
  *  Re-labelling: this classifier decides keypoints inside its boxes, also
  *  returning to Static keypoints an earlier BoxFilter dropped (reason
@@ -56,6 +59,7 @@ class DepthRepopulation : public KeypointClassifier {
   double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3;
   int stride_ = 2, min_samples_ = 10;
   bool exclude_overlap_ = true;
+  enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
   std::map<int, double> margin_;
   double margin_default_ = 0.5;
   std::vector<BoxDepthStats> stats_;

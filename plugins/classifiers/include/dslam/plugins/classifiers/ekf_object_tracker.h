@@ -24,6 +24,7 @@ struct TrackedObject {
   int updates = 0;           ///< measurements fused (the first initialises)
   int static_count = 0;      ///< consecutive updates with speed <= threshold
   int missed = 0;            ///< frames without an associated box
+  int gated = 0;             ///< consecutive measurements rejected by the innovation gate
   bool dynamic = true;       ///< current decision
   KpReason reason = KpReason::NewObject;  ///< NewObject or ObjectMoving while dynamic
   double speed() const { return x.tail<3>().norm(); }
@@ -45,7 +46,18 @@ struct TrackedObject {
  *  (ctx.predicted_T_wc, else ctx.previous_T_wc) and labels keypoints in
  *  boxes of dynamic objects Dynamic (ObjectMoving / NewObject), those of
  *  static objects Movable (OnObject) with the object id; afterTracking()
- *  runs the EKF update with the estimated pose. Never lowers a label. */
+ *  runs the EKF update with the estimated pose. Never lowers a label.
+ *
+ *  Guards of ours against apparent motion of static objects: the centroid
+ *  measurement's std grows with the box's metric size (`size_sigma`; the
+ *  box centre at the central depth is not a fixed point of the object), a
+ *  box cut by the image border (`truncated_margin`) gives no measurement
+ *  to an existing track (the visible part's centre slides over the object
+ *  as the camera turns: a steady apparent motion), and a measurement outside the
+ *  innovation gate (`gate_chi2`) is not fused; `max_gated` of them in a row
+ *  restart the track at the measurement (NewObject). An object proven
+ *  static becomes moving only when its velocity is also significantly
+ *  non-zero (`moving_chi2` on v' P_v^-1 v). */
 class EkfObjectTracker : public KeypointClassifier {
   DEFINE_MRPT_OBJECT(EkfObjectTracker, dslam)
  public:
@@ -71,10 +83,17 @@ class EkfObjectTracker : public KeypointClassifier {
   };
   Assoc associate(const Frame& f, const Detections& det, const std::optional<SE3>& T_wc) const;
   bool tracked(const BoundingBox& b) const;
+  /** Predict + update of `o` with camera-frame centroid `zc` of `box`;
+   *  false if the innovation gate rejected it (the track may restart). */
+  bool fuse(TrackedObject& o, const Eigen::Vector3d& zc, const cv::Rect2f& box, const SE3& T_wc, double t_now,
+            double fallback_dt) const;
+  /** Whether the box touches the image border (within truncated_margin). */
+  bool truncated(const cv::Rect2f& box, const Frame& f) const;
 
   std::vector<int> classes_;
   double min_score_ = 0, iou_ = 0.3, meas_sigma_ = 0.05, p0_ = 1.0, center_fraction_ = 0.3;
-  int min_static_ = 5, max_missed_ = 10;
+  int min_static_ = 5, max_missed_ = 10, max_gated_ = 3;
+  double truncated_margin_ = 5, gate_chi2_ = 11.34, size_sigma_ = 0.0, moving_chi2_ = 11.34;
   bool movable_ = true;
   std::map<int, double> sigma_a_, speed_thr_;
   double sigma_a_default_ = 0.01, speed_thr_default_ = 0.1;

@@ -9,7 +9,8 @@
  *  keyframe, object candidates from its labelled points, long-term data
  *  association into MapObjects, a Bayes belief per object (raised by
  *  sightings after a long absence, lowered by negative evidence: its place
- *  in view, not occluded, nothing of its class there); below
+ *  in view, not occluded, nothing of its class there, or its own points in
+ *  view and not found again); below
  *  `belief_threshold` its points are inactive. Beyond the paper: objects
  *  not confirmed for `dormant_after_s` seconds, or when tracking is lost,
  *  are dormant (inactive, belief kept) until a keyframe sees them again, so
@@ -27,6 +28,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "dslam/map/filtering_map_manager.h"
 #include "dslam/map/map_object.h"
@@ -44,6 +46,8 @@ struct PersistenceStats {
   int64_t reactivated = 0;  ///< brought back above it
   int64_t dormant = 0;      ///< objects made dormant (not confirmed for long, tracking lost)
   int64_t woken = 0;        ///< dormant objects confirmed again
+  int64_t keyframe_requests = 0;  ///< keyframes asked for unmapped objects in view
+  int64_t merged = 0;             ///< objects merged into another (partial views of one object)
   std::string str() const;
 };
 
@@ -58,6 +62,13 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   bool isActive(const MapPoint& p) const override { return p.active && inner().isActive(p); }
   void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) override;
   void onTrackingLost(const std::shared_ptr<Map>& m) override;
+  /** A detected object (class and tracker id) with `new_object_keypoints`
+   *  keypoints with depth of which at most a fifth are matched to
+   *  established map points (seen by 3 keyframes; fewer are culled by
+   *  local mapping): the next frame becomes a keyframe (at most one request
+   *  per `new_object_keyframe_gap` seconds), so that objects seen while
+   *  tracking needs no keyframe get mapped. */
+  bool wantsKeyFrame(const Frame& f, const std::vector<MapPointPtr>& matched) override;
 
   const PersistenceStats& stats() const { return stats_; }
   const LtdaParams& ltdaParams() const { return ltda_; }
@@ -65,6 +76,14 @@ class ObjectPersistenceFilter : public FilteringMapManager {
  private:
   /** Negative evidence for `o` from keyframe `kf` (not seen in it). */
   bool placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const;
+  /** Its points a keyframe should see (in the image, in range, facing it,
+   *  not occluded by nearer keypoints) and how many of them it does (tracked,
+   *  or a keypoint at the projection with a matching descriptor and depth). */
+  struct PointEvidence {
+    int expected = 0, found = 0;
+  };
+  PointEvidence pointEvidence(const KeyFrame& kf, const MapObject& o,
+                              const std::unordered_set<const MapPoint*>& kf_points) const;
   void setDormant(MapObject& o);
 
   LtdaParams ltda_;
@@ -78,6 +97,10 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   bool dormant_on_lost_ = true;
   double max_range_ = 6.0, occlusion_margin_ = 0.3, min_free_fraction_ = 0.6;
   int min_place_keypoints_ = 8, min_support_points_ = 3;
+  int min_expected_points_ = 8, max_descriptor_distance_ = 50;
+  int new_object_keypoints_ = 10;
+  double new_object_gap_s_ = 1.0, last_request_t_ = -1e300;
+  double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
   PersistenceStats stats_;
 };
 
