@@ -185,7 +185,7 @@ const char* kPrior = "motion_prior: true\n";
 void BM_EpipolarFlowShipped(benchmark::State& st) {
   // DSLAM_BENCH_FLOW_PARAMS (YAML lines) replaces the LK settings, for tuning.
   const char* env = std::getenv("DSLAM_BENCH_FLOW_PARAMS");
-  const std::string lk = env ? env : "lk_window: 15\nlk_levels: 1\nlk_iterations: 10\n";
+  const std::string lk = env ? env : "lk_window: 11\nlk_levels: 0\nlk_iterations: 10\n";
   run(st, "EpipolarConsistency", std::string(kPrior) + lk + "\nmax_fit_points: 300");
 }
 void BM_EpipolarDescriptorsShipped(benchmark::State& st) {
