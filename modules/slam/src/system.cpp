@@ -491,6 +491,8 @@ FrameResult System::track(const SensorFrame& in) {
     std::vector<MapPointPtr> matched(lf.points.size());
     for (size_t i = 0; i < lf.points.size(); i++)
       if (lf.points[i] && !lf.outlier[i]) matched[i] = lf.points[i];
+    auto map = tracker_->map();  // the points' observations are local mapping's: read them under the map lock
+    std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
     if (maps_->wantsKeyFrame(lf.f, matched)) tracker_->requestKeyFrame();
   }
   if (mode_ == config::Mode::Sequential) {

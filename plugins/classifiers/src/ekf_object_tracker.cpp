@@ -41,6 +41,9 @@ std::vector<ParamSpec> EkfObjectTracker::paramSpecs() const {
       P_double("center_fraction", 0.3,
                "central window of the box (fraction of width/height) whose median depth places the centroid (eq. 8)",
                0.01, 1),
+      P_list("guard_exempt_classes", ParamType::IntList, "[1]",
+             "classes the two static-object guards below (cut boxes, significant motion) do not apply to: people "
+             "stop and start walking on their own, the paper's rule catches them at once"),
       P_double("truncated_margin", 5,
                "a box within this many pixels (plus 5% of its size) of the image border is cut by it: its centre is "
                "not the object's, its centroid measurement gets the std of half the box's metric size (chosen "
@@ -86,6 +89,7 @@ void EkfObjectTracker::configure(const Params& p, const PluginContext& ctx) {
   center_fraction_ = p.getDouble("center_fraction");
   movable_ = p.getBool("label_static_movable");
   truncated_margin_ = p.getDouble("truncated_margin");
+  exempt_ = cls::cocoIdList(p, "guard_exempt_classes");
   gate_chi2_ = p.getDouble("gate_chi2");
   size_sigma_ = p.getDouble("size_sigma");
   moving_chi2_ = p.getDouble("moving_chi2");
@@ -355,7 +359,7 @@ void EkfObjectTracker::afterTracking(const Frame& frame, const Detections& det, 
       continue;
     }
     TrackedObject& o = tracks_[ti];
-    if (truncated(bb.box, frame)) {
+    if (!cls::contains(exempt_, o.class_id) && truncated(bb.box, frame)) {
       // Cut by the image border: the visible part's centre slides over the object as the view changes (a
       // steady apparent motion), no measurement of where it is. The track follows the box; the decision
       // below is made on the state as it is (slow: a step towards static).
@@ -370,7 +374,8 @@ void EkfObjectTracker::afterTracking(const Frame& frame, const Detections& det, 
     // keep the paper's rule.
     const Eigen::Vector3d v = o.x.tail<3>();
     const bool moving = o.speed() > speedThreshold(o.class_id) &&
-                        (o.dynamic || moving_chi2_ <= 0 || v.dot(o.P.block<3, 3>(3, 3).ldlt().solve(v)) > moving_chi2_);
+                        (o.dynamic || moving_chi2_ <= 0 || cls::contains(exempt_, o.class_id) ||
+                         v.dot(o.P.block<3, 3>(3, 3).ldlt().solve(v)) > moving_chi2_);
     if (moving) {
       o.static_count = 0;
       o.dynamic = true;

@@ -57,7 +57,8 @@ struct TrackedObject {
  *  innovation gate (`gate_chi2`) is not fused; `max_gated` of them in a row
  *  restart the track at the measurement (NewObject). An object proven
  *  static becomes moving only when its velocity is also significantly
- *  non-zero (`moving_chi2` on v' P_v^-1 v). */
+ *  non-zero (`moving_chi2` on v' P_v^-1 v). People (`guard_exempt_classes`)
+ *  keep the paper's rule: they stop and start walking on their own. */
 class EkfObjectTracker : public KeypointClassifier {
   DEFINE_MRPT_OBJECT(EkfObjectTracker, dslam)
  public:
@@ -90,7 +91,7 @@ class EkfObjectTracker : public KeypointClassifier {
   /** Whether the box touches the image border (within truncated_margin). */
   bool truncated(const cv::Rect2f& box, const Frame& f) const;
 
-  std::vector<int> classes_;
+  std::vector<int> classes_, exempt_{1};
   double min_score_ = 0, iou_ = 0.3, meas_sigma_ = 0.05, p0_ = 1.0, center_fraction_ = 0.3;
   int min_static_ = 5, max_missed_ = 10, max_gated_ = 3;
   double truncated_margin_ = 5, gate_chi2_ = 11.34, size_sigma_ = 0.0, moving_chi2_ = 11.34;
