@@ -344,7 +344,7 @@ TEST(ObjectPersistenceFilter, PointsFoundAgainWakeADormantObjectWithoutADetectio
 
 TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablishedPoints) {
   auto atlas = std::make_shared<Atlas>();
-  auto filter = makeFilter<ObjectPersistenceFilter>("{}", atlas);
+  auto filter = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 10}", atlas);
   Scene s(filter->currentMap());
   // A frame seeing the chair (its keypoints labelled, with depth), nothing matched.
   test::SynthWorld view = s.world.w;
@@ -381,7 +381,7 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
   for (auto& m : f.meta) m.label = KpLabel::Dynamic;
   EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
   EXPECT_EQ(filter->stats().keyframe_requests, 1);
-  auto off = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 0}", atlas);
+  auto off = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // off by default
   for (auto& m : f.meta) m.label = KpLabel::Static;
   EXPECT_FALSE(off->wantsKeyFrame(f, matched));
 }
