@@ -360,9 +360,9 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
     }
   ASSERT_GE(on, 10);
   std::vector<MapPointPtr> matched(f.size());
-  EXPECT_TRUE(filter->wantsKeyFrame(f, matched));
+  EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, matched));
   f.input.timestamp = 1.5;  // within new_object_keyframe_gap (1 s): once is enough
-  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
   // Matched to established points (seen by 3 keyframes): nothing to ask for.
   f.input.timestamp = 3.0;
   auto kf1 = s.keyframe(0.0, poseAt({0, 0, 0}), true);
@@ -375,13 +375,13 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
       mp->addObservation(kf2.get(), 0);
       matched[k] = mp;
     }
-  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
   // Dynamic keypoints (a person, a moving object) ask for nothing.
   std::fill(matched.begin(), matched.end(), nullptr);
   for (auto& m : f.meta) m.label = KpLabel::Dynamic;
-  EXPECT_FALSE(filter->wantsKeyFrame(f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
   EXPECT_EQ(filter->stats().keyframe_requests, 1);
   auto off = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // off by default
   for (auto& m : f.meta) m.label = KpLabel::Static;
-  EXPECT_FALSE(off->wantsKeyFrame(f, matched));
+  EXPECT_FALSE(off->wantsKeyFrame(s.map, f, matched));
 }

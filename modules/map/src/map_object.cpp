@@ -33,6 +33,12 @@ void MapObject::setActive(bool a) {
   for (const auto& [id, p] : points) p->active = a;
 }
 
+void MapObject::addPoint(const MapPointPtr& mp) {
+  points[mp->id] = mp;
+  mp->map_object = id;
+  mp->active = active;
+}
+
 void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi, double fraction) {
   lo.setZero();
   hi.setZero();
@@ -207,11 +213,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
       objects[o->id] = o;
       out[c] = {c, o->id, true, 0.0, -1, 0.0};
     }
-    for (const auto& mp : cand.points) {
-      o->points[mp->id] = mp;
-      mp->map_object = o->id;
-      mp->active = o->active;
-    }
+    for (const auto& mp : cand.points) o->addPoint(mp);
     o->last_seen_kf = kf_id;
     o->last_seen_t = t;
     o->current_box = cand.box;
@@ -237,11 +239,7 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
         ++b;
         continue;
       }
-      for (const auto& [id, mp] : B.points) {
-        A.points[id] = mp;
-        mp->map_object = A.id;
-        mp->active = A.active;
-      }
+      for (const auto& [id, mp] : B.points) A.addPoint(mp);
       A.sightings += B.sightings;
       A.belief = std::max(A.belief, B.belief);
       if (B.first_seen_kf >= 0 && (A.first_seen_kf < 0 || B.first_seen_t < A.first_seen_t)) {

@@ -487,13 +487,9 @@ FrameResult System::track(const SensorFrame& in) {
 
   if (res.track.state == TrackState::Ok && !res.track.keyframe) {
     checkPlaceRecognition();
+    // The tracker has already dropped the frame's outliers from its matches.
     const TrackedFrame& lf = tracker_->lastFrame();
-    std::vector<MapPointPtr> matched(lf.points.size());
-    for (size_t i = 0; i < lf.points.size(); i++)
-      if (lf.points[i] && !lf.outlier[i]) matched[i] = lf.points[i];
-    auto map = tracker_->map();  // the points' observations are local mapping's: read them under the map lock
-    std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
-    if (maps_->wantsKeyFrame(lf.f, matched)) tracker_->requestKeyFrame();
+    if (maps_->wantsKeyFrame(tracker_->map(), lf.f, lf.points)) tracker_->requestKeyFrame();
   }
   if (mode_ == config::Mode::Sequential) {
     mapper_->processAll();

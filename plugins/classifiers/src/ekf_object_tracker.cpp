@@ -46,8 +46,7 @@ std::vector<ParamSpec> EkfObjectTracker::paramSpecs() const {
              "stop and start walking on their own, the paper's rule catches them at once"),
       P_double("truncated_margin", 5,
                "a box within this many pixels (plus 5% of its size) of the image border is cut by it: its centre is "
-               "not the object's, its centroid measurement gets the std of half the box's metric size (chosen "
-               "default; -1 = off)",
+               "not the object's, it gives no measurement to an existing track (chosen default; -1 = off)",
                -1, 10000),
       P_double("size_sigma", 0.0,
                "added std of the centroid measurement, as a fraction of the box's metric size (the box centre at "

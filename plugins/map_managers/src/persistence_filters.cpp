@@ -30,6 +30,41 @@ bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv,
   return kf.cam.bounds.contains(uv.x, uv.y);
 }
 
+/** Whether keyframe `kf` should see map point `p`: it projects inside the
+ *  image (pixel `uv`, depth `z`), nearer than `max_range`, within 60 degrees
+ *  of the point's mean viewing direction (ORB-SLAM's viewing-angle test). */
+bool pointInView(const KeyFrame& kf, const MapPoint& p, double max_range, cv::Point2f& uv, double& z) {
+  if (!projectInto(kf, p.pos, uv, z) || z > max_range) return false;
+  return (p.pos - kf.center()).normalized().dot(p.normal) >= 0.5;
+}
+
+/** What the keypoints of `kf` within `radius` pixels of the projection
+ *  (uv, z) of `p` show. */
+struct Around {
+  bool any_depth = false;  ///< one of them has depth
+  bool occluded = false;   ///< one of them is nearer than the point by more than the margin
+  bool match = false;      ///< one of them is the point (see Match)
+};
+enum class Match {
+  None,              ///< no descriptor test
+  Descriptor,        ///< descriptor distance only
+  DescriptorAndDepth ///< descriptor distance, and a depth within the margin of the point's
+};
+Around lookAround(const KeyFrame& kf, const MapPoint& p, const cv::Point2f& uv, double z, float radius,
+                  double occlusion_margin, int max_descriptor_distance, Match m) {
+  Around a;
+  for (size_t i : kf.featuresInArea(uv.x, uv.y, radius)) {
+    const float d = i < kf.depth.size() ? kf.depth[i] : 0.f;
+    if (d > 0) a.any_depth = true;
+    if (d > 0 && d < z - occlusion_margin) a.occluded = true;
+    if (m == Match::None || a.match) continue;
+    if (m == Match::DescriptorAndDepth && !(d > 0 && std::abs(d - z) <= occlusion_margin)) continue;
+    a.match = descriptorDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)), p.desc.data()) <=
+              max_descriptor_distance;
+  }
+  return a;
+}
+
 }  // namespace
 
 std::string PersistenceStats::str() const {
@@ -153,8 +188,11 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   last_request_t_ = -1e300;
 }
 
-bool ObjectPersistenceFilter::wantsKeyFrame(const Frame& f, const std::vector<MapPointPtr>& matched) {
-  if (new_object_keypoints_ > 0 && f.timestamp() - last_request_t_ >= new_object_gap_s_ && f.meta.size() == f.size()) {
+bool ObjectPersistenceFilter::wantsKeyFrame(const std::shared_ptr<Map>& map, const Frame& f,
+                                            const std::vector<MapPointPtr>& matched) {
+  if (new_object_keypoints_ > 0 && map && f.timestamp() - last_request_t_ >= new_object_gap_s_ &&
+      f.meta.size() == f.size()) {
+    std::lock_guard<std::recursive_mutex> lk(map->update_mutex);  // observations are local mapping's
     // (class, tracker id) -> (keypoints, matched to established points)
     std::map<std::pair<int, int>, std::pair<int, int>> by_object;
     for (size_t i = 0; i < f.size(); i++) {
@@ -172,39 +210,27 @@ bool ObjectPersistenceFilter::wantsKeyFrame(const Frame& f, const std::vector<Ma
         return true;
       }
   }
-  return FilteringMapManager::wantsKeyFrame(f, matched);
+  return FilteringMapManager::wantsKeyFrame(map, f, matched);
 }
 
 ObjectPersistenceFilter::PointEvidence ObjectPersistenceFilter::pointEvidence(
     const KeyFrame& kf, const MapObject& o, const std::unordered_set<const MapPoint*>& kf_points) const {
   PointEvidence ev;
-  const Eigen::Vector3d cam_center = kf.center();
-  const float r = static_cast<float>(match_radius_px_);
   for (const auto& [id, p] : o.points) {
     if (!p || p->bad) continue;
     cv::Point2f uv;
     double z = 0;
-    if (!projectInto(kf, p->pos, uv, z) || z > max_range_) continue;
-    if ((p->pos - cam_center).normalized().dot(p->normal) < 0.5) continue;  // seen from its back or far off its view
+    if (!pointInView(kf, *p, max_range_, uv, z)) continue;
     if (kf_points.count(p.get())) {
       ev.expected++;
       ev.found++;
       continue;
     }
-    bool any_depth = false, occluded = false, match = false;
-    for (size_t i : kf.featuresInArea(uv.x, uv.y, r)) {
-      const float d = i < kf.depth.size() ? kf.depth[i] : 0.f;
-      if (d <= 0) continue;
-      any_depth = true;
-      if (d < z - occlusion_margin_) occluded = true;
-      if (std::abs(d - z) <= occlusion_margin_ &&
-          descriptorDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)), p->desc.data()) <=
-              max_descriptor_distance_)
-        match = true;
-    }
-    if (occluded || !any_depth) continue;  // hidden, or nothing to tell
+    const Around a = lookAround(kf, *p, uv, z, static_cast<float>(match_radius_px_), occlusion_margin_,
+                                max_descriptor_distance_, Match::DescriptorAndDepth);
+    if (a.occluded || !a.any_depth) continue;  // hidden, or nothing to tell
     ev.expected++;
-    ev.found += match;
+    ev.found += a.match;
   }
   return ev;
 }
@@ -427,7 +453,6 @@ void PointPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (p->map == m) local[p->id] = p;
     ++it;
   }
-  const Eigen::Vector3d cam_center = kf->center();
   for (const auto& [id, p] : local) {
     auto [it, inserted] = filters_.try_emplace(id, fp_, t);
     FeaturePersistence& f = it->second;
@@ -436,19 +461,12 @@ void PointPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (!seen) {
       cv::Point2f uv;
       double z = 0;
-      if (!projectInto(*kf, p->pos, uv, z) || z > max_range_) continue;
-      const Eigen::Vector3d ray = (p->pos - cam_center).normalized();
-      if (ray.dot(p->normal) < 0.5) continue;  // seen from too far off its viewing direction (ORB-SLAM: 60 deg)
-      bool any_depth = false, occluded = false;
-      for (size_t i : kf->featuresInArea(uv.x, uv.y, static_cast<float>(match_radius_px_))) {
-        const float d = i < kf->depth.size() ? kf->depth[i] : 0.f;
-        if (d > 0) any_depth = true;
-        if (d > 0 && d < z - occlusion_margin_) occluded = true;
-        if (!p->active && descriptorDistance(kf->descriptors.ptr<uint8_t>(static_cast<int>(i)), p->desc.data()) <=
-                              max_descriptor_distance_)
-          seen = true;
-      }
-      if (occluded || !any_depth) continue;  // hidden, or nothing to tell (no keypoint there)
+      if (!pointInView(*kf, *p, max_range_, uv, z)) continue;
+      // An inactive point is seen again where a keypoint matches its descriptor.
+      const Around a = lookAround(*kf, *p, uv, z, static_cast<float>(match_radius_px_), occlusion_margin_,
+                                  max_descriptor_distance_, p->active ? Match::None : Match::Descriptor);
+      seen = a.match;
+      if (a.occluded || !a.any_depth) continue;  // hidden, or nothing to tell (no keypoint there)
     }
     f.update(seen, t);
     if (seen) {

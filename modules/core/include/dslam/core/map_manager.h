@@ -44,12 +44,15 @@ class MapManager : public Plugin {
    *  lock the map to change it): what was seen before may have changed by
    *  the time the camera relocalises. */
   virtual void onTrackingLost(const std::shared_ptr<Map>& m) { (void)m; }
-  /** Called in the tracking thread after a tracked frame that did not become
-   *  a keyframe (`matched[i]`: the map point keypoint i is matched to, null
-   *  for none and for outliers): true makes the next frame a keyframe, if
-   *  mapping accepts one (an object filter asks when a detected object the
-   *  map has too few established points on is in view). */
-  virtual bool wantsKeyFrame(const Frame& f, const std::vector<std::shared_ptr<MapPoint>>& matched) {
+  /** Called in the tracking thread after a frame tracked in map `m` that
+   *  did not become a keyframe (`matched[i]`: the map point keypoint i is
+   *  matched to, null for none and for outliers; lock `m` to read the points'
+   *  mapping state): true makes the next frame a keyframe, if mapping accepts
+   *  one (an object filter asks when a detected object the map has too few
+   *  established points on is in view). */
+  virtual bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f,
+                             const std::vector<std::shared_ptr<MapPoint>>& matched) {
+    (void)m;
     (void)f;
     (void)matched;
     return false;

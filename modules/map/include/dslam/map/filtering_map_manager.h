@@ -34,8 +34,9 @@ class FilteringMapManager : public MapManager {
   bool isActive(const MapPoint& p) const override { return inner().isActive(p); }
   void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) override { inner().onKeyFrame(kf); }
   void onTrackingLost(const std::shared_ptr<Map>& m) override { inner().onTrackingLost(m); }
-  bool wantsKeyFrame(const Frame& f, const std::vector<std::shared_ptr<MapPoint>>& matched) override {
-    return inner().wantsKeyFrame(f, matched);
+  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f,
+                     const std::vector<std::shared_ptr<MapPoint>>& matched) override {
+    return inner().wantsKeyFrame(m, f, matched);
   }
   void save(const std::string& path) const override { inner().save(path); }
   void load(const std::string& path) override { inner().load(path); }

@@ -58,6 +58,9 @@ struct MapObject {
   }
   /** Sets `active` on the object and on every one of its points. */
   void setActive(bool a);
+  /** Makes `mp` one of its points: the point records the object and takes
+   *  its `active` flag. */
+  void addPoint(const MapPointPtr& mp);
 };
 
 using MapObjectPtr = std::shared_ptr<MapObject>;

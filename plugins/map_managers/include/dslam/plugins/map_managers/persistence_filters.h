@@ -68,7 +68,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
    *  local mapping): the next frame becomes a keyframe (at most one request
    *  per `new_object_keyframe_gap` seconds), so that objects seen while
    *  tracking needs no keyframe get mapped. */
-  bool wantsKeyFrame(const Frame& f, const std::vector<MapPointPtr>& matched) override;
+  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f, const std::vector<MapPointPtr>& matched) override;
 
   const PersistenceStats& stats() const { return stats_; }
   const LtdaParams& ltdaParams() const { return ltda_; }
