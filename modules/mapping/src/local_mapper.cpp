@@ -27,6 +27,11 @@ std::vector<ParamSpec> LocalMapperParams::specs() {
       P_int("ba_max_fixed_keyframes", d.ba_max_fixed_keyframes,
             "keyframes held fixed in local BA: of those that see the optimised points, the ones with the most "
             "observations of them (ORB-SLAM2: all)", 1),
+      P_enum("ba_inactive_points", d.ba_inactive_points_fixed ? "fixed" : "skip", {"fixed", "skip"},
+             "map points the persistence filters made inactive (objects gone or dormant): 'fixed' = constant in "
+             "local BA, so the observations older keyframes made of them while they were there keep those keyframes "
+             "in place, and they are never moved; 'skip' = left out (a keyframe that saw mostly inactive points is "
+             "then held by the few others: a plain room whose texture is on the objects bends after a merge)"),
   };
 }
 
@@ -40,6 +45,7 @@ LocalMapperParams LocalMapperParams::fromParams(const Params& p) {
   m.ba_iterations = static_cast<int>(p.getInt("ba_iterations"));
   m.ba_max_keyframes = static_cast<int>(p.getInt("ba_max_keyframes"));
   m.ba_max_fixed_keyframes = static_cast<int>(p.getInt("ba_max_fixed_keyframes"));
+  m.ba_inactive_points_fixed = p.getString("ba_inactive_points") == "fixed";
   return m;
 }
 
@@ -330,7 +336,7 @@ void LocalMapper::localBundleAdjustment() {
     }
     for (KeyFrame* k : local)
       for (const auto& mp : k->points)
-        if (mp && !mp->bad && mp->active && mp->ba_local_for_kf != kf->id) {  // inactive: persistence filters
+        if (mp && !mp->bad && (mp->active || p_.ba_inactive_points_fixed) && mp->ba_local_for_kf != kf->id) {
           mp->ba_local_for_kf = kf->id;
           pts.push_back(mp);
         }
@@ -367,7 +373,7 @@ void LocalMapper::localBundleAdjustment() {
     const auto& c = kf->cam;
     prob.camera = {c.fx, c.fy, c.cx, c.cy, c.bf};
     for (size_t pi = 0; pi < pts.size(); pi++) {
-      prob.points.push_back({pts[pi]->id, pts[pi]->pos, false});
+      prob.points.push_back({pts[pi]->id, pts[pi]->pos, !pts[pi]->active});
       for (const auto& [kid, o] : pts[pi]->observations()) {
         auto it = kf_index.find(kid);
         if (it == kf_index.end()) continue;

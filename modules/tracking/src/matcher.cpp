@@ -369,7 +369,7 @@ int Matcher::fuse(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>&
   int n = 0;
   for (size_t k = 0; k < points.size(); k++) {
     const MapPointPtr& mp = points[k];
-    if (!mp || mp->bad || mp->isIn(kf)) continue;
+    if (!mp || mp->bad || !mp->active || mp->isIn(kf)) continue;  // inactive: persistence filters
     const Eigen::Vector3d Xc = T_cw * mp->pos;
     const Eigen::Vector3d PO = mp->pos - Ow;
     if (PO.dot(mp->normal) < 0.5 * PO.norm()) continue;
@@ -377,6 +377,7 @@ int Matcher::fuse(KeyFrame* kf, const SE3& T_cw, const std::vector<MapPointPtr>&
     if (idx < 0) continue;
     const MapPointPtr& in_kf = kf->points[idx];
     if (in_kf && !in_kf->bad) {
+      if (!in_kf->active) continue;  // an inactive point is not merged with an active one
       if (in_kf != mp) replace[k] = in_kf;
     } else {
       mp->addObservation(kf, idx);
@@ -466,7 +467,7 @@ int Matcher::fuse(KeyFrame* kf, const std::vector<MapPointPtr>& pts, float th) c
   std::vector<size_t> cand;
   for (const auto& mp0 : pts) {
     MapPointPtr mp = mp0;
-    if (!mp || mp->bad || mp->isIn(kf)) continue;
+    if (!mp || mp->bad || !mp->active || mp->isIn(kf)) continue;  // inactive: persistence filters
     const Eigen::Vector3d Xc = Tcw * mp->pos;
     if (Xc.z() < 0) continue;
     const float invz = static_cast<float>(1.0 / Xc.z());
@@ -503,6 +504,7 @@ int Matcher::fuse(KeyFrame* kf, const std::vector<MapPointPtr>& pts, float th) c
     if (best > p_.th_low) continue;
     MapPointPtr in_kf = kf->points[best_idx];
     if (in_kf && !in_kf->bad) {
+      if (!in_kf->active) continue;  // an inactive point (a moved object's, say) is not merged with an active one
       if (in_kf->numObservations() > mp->numObservations())
         mp->replaceWith(in_kf);
       else

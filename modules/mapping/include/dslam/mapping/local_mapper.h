@@ -32,6 +32,7 @@ struct LocalMapperParams {
   int ba_iterations = 10;             ///< second pass iterations (first pass 5, ORB-SLAM)
   int ba_max_keyframes = 20;          ///< optimised keyframes: the new one + its best covisibles
   int ba_max_fixed_keyframes = 20;    ///< fixed keyframes: those seeing the most local points
+  bool ba_inactive_points_fixed = true; ///< inactive points (persistence filters) constant in local BA; false = left out
   bool monocular = false;
 
   static std::vector<ParamSpec> specs();
