@@ -35,6 +35,16 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "dynamic_classes only (see-through objects such as chairs and tables, whose centre is deeper than "
              "their front, keep their keypoints: a fuller object map, but an unlabelled thing in front of a "
              "labelled object is no longer caught: unknown_object ATE 0.12 -> 0.27 m); none"),
+      P_double("occlusion_span", 0.8,
+               "a box whose near layer (depths within depth_margin of the object depth) spans this fraction of its "
+               "width and of its height is not occluded: the nearest surface is the object, seen through (chairs, "
+               "tables); an unlabelled thing in front covers part of the box (chosen; 0 = off, every deep centre "
+               "is an occluder)",
+               0, 1),
+      P_double("overlap_dilation", 0.1,
+               "other boxes are widened by this fraction of their width / height on each side before their overlap "
+               "is left out (box jitter of real detectors; chosen, 0 = the boxes as detected)",
+               0, 1),
       P_bool("exclude_overlap", true, "leave pixels shared by overlapping boxes out of the statistics (Changing-SLAM 4.1)"),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
@@ -53,6 +63,8 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   min_percentile_ = p.getDouble("min_percentile");
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
+  occlusion_span_ = p.getDouble("occlusion_span");
+  overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
   const std::string oc = p.getString("occlusion_check");
   occlusion_ = oc == "dynamic" ? Occlusion::Dynamic : oc == "none" ? Occlusion::None : Occlusion::All;
@@ -127,7 +139,8 @@ cv::Rect pixelRect(const cv::Rect2f& r, const cv::Mat& img) {
 }
 
 /** Depth samples of a box (every `stride`-th pixel, outside the `shared`
- *  overlaps) into `buf` and of its central window (every pixel) into
+ *  overlaps) into `buf` and of its central window (every pixel, also outside
+ *  the overlaps: a labelled object in front is no unlabelled occluder) into
  *  `cbuf`; without a depth image, the depths of the keypoints inside. */
 void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f& center,
                      const std::vector<cv::Rect2f>& shared, int stride, std::vector<float>& buf,
@@ -141,7 +154,8 @@ void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f
       if (!cls::inBox(pt, box)) continue;
       const float d = keypointDepth(frame, i);
       if (!validDepth(d)) continue;
-      if (!inAny(shared, pt.x, pt.y)) buf.push_back(d);
+      if (inAny(shared, pt.x, pt.y)) continue;
+      buf.push_back(d);
       if (cls::inBox(pt, center)) cbuf.push_back(d);
     }
     return;
@@ -159,8 +173,51 @@ void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f
   for (int y = rc.y; y < rc.y + rc.height; y++) {  // central window: every pixel
     const float* row = depth.ptr<float>(y);
     for (int x = rc.x; x < rc.x + rc.width; x++)
-      if (validDepth(row[x])) cbuf.push_back(row[x]);
+      if (validDepth(row[x]) && (shared.empty() || !inAny(shared, static_cast<float>(x), static_cast<float>(y))))
+        cbuf.push_back(row[x]);
   }
+}
+
+/** Extent of the box's near layer (depth in (0, max_depth]) as fractions
+ *  of the box width and height: between the 2nd and 98th percentiles of the
+ *  layer's pixel coordinates (a few stray pixels do not stretch it). Samples
+ *  every `stride`-th pixel, outside the `shared` overlaps; without a depth
+ *  image, the keypoints in the box. */
+void nearLayerSpan(const Frame& frame, const cv::Rect2f& box, const std::vector<cv::Rect2f>& shared, int stride,
+                   float max_depth, std::vector<float>& xs, std::vector<float>& ys, float& span_x, float& span_y) {
+  xs.clear();
+  ys.clear();
+  const cv::Mat& depth = frame.input.depth;
+  if (depth.empty()) {
+    for (size_t i = 0; i < frame.size(); i++) {
+      const cv::Point2f& pt = frame.keypoints[i].pt;
+      if (!cls::inBox(pt, box) || inAny(shared, pt.x, pt.y)) continue;
+      const float d = keypointDepth(frame, i);
+      if (validDepth(d) && d <= max_depth) xs.push_back(pt.x), ys.push_back(pt.y);
+    }
+  } else {
+    const cv::Rect r = pixelRect(box, depth);
+    for (int y = r.y; y < r.y + r.height; y += stride) {
+      const float* row = depth.ptr<float>(y);
+      for (int x = r.x; x < r.x + r.width; x += stride) {
+        const float d = row[x];
+        if (!validDepth(d) || d > max_depth) continue;
+        if (!shared.empty() && inAny(shared, static_cast<float>(x), static_cast<float>(y))) continue;
+        xs.push_back(static_cast<float>(x));
+        ys.push_back(static_cast<float>(y));
+      }
+    }
+  }
+  auto extent = [](std::vector<float>& v) {
+    if (v.size() < 2) return 0.f;
+    const size_t lo = v.size() / 50, hi = v.size() - 1 - v.size() / 50;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    const float a = v[lo];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    return v[hi] - a;
+  };
+  span_x = box.width > 0 ? extent(xs) / box.width : 0.f;
+  span_y = box.height > 0 ? extent(ys) / box.height : 0.f;
 }
 
 }  // namespace
@@ -206,7 +263,11 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     if (exclude_overlap_)
       for (int o : sel)
         if (o != b) {
-          const cv::Rect2f x = box & det.boxes[o].box;
+          // Another labelled object in front is no unlabelled occluder: its box
+          // widened by overlap_dilation (detector boxes are not exact) is left out.
+          const cv::Rect2f& ob = det.boxes[o].box;
+          const float dx = ob.width * static_cast<float>(overlap_dilation_), dy = ob.height * static_cast<float>(overlap_dilation_);
+          const cv::Rect2f x = box & cv::Rect2f(ob.x - dx, ob.y - dy, ob.width + 2 * dx, ob.height + 2 * dy);
           if (x.width > 0 && x.height > 0) shared.push_back(x);
         }
     const float cw = box.width * static_cast<float>(center_fraction_),
@@ -231,6 +292,12 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     const bool check = occlusion_ == Occlusion::All || (occlusion_ == Occlusion::Dynamic && dyn_class);
     if (check && enough && c.n > 0)
       st.occluded = st.center_depth > st.object_depth + st.margin || st.center_std > max_center_std_;
+    if (st.occluded && occlusion_span_ > 0 && !dyn_class) {
+      // The near layer across the whole box is the object, seen through.
+      nearLayerSpan(frame, box, shared, stride_, st.object_depth + st.margin, xs_, ys_, st.near_span_x,
+                    st.near_span_y);
+      if (st.near_span_x >= occlusion_span_ && st.near_span_y >= occlusion_span_) st.occluded = false;
+    }
     stats_.push_back(st);
 
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;

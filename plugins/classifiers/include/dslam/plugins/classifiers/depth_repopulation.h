@@ -20,6 +20,7 @@ struct BoxDepthStats {
   float center_depth = 0;  ///< median over the central window (0 = no valid sample)
   float center_std = 0;    ///< std over the central window
   float margin = 0;        ///< class depth margin used
+  float near_span_x = 0, near_span_y = 0;  ///< extent of the near layer (depth <= object depth + margin), fraction of the box
   bool occluded = false;   ///< unlabelled occluder detected: keypoints unusable
 };
 
@@ -34,10 +35,13 @@ struct BoxDepthStats {
  *  the depth at the box centre (median of the central window) is deeper
  *  than object depth + margin, i.e. the nearest surface in the box is not
  *  the detected object, or the central window's depth std exceeds
- *  `max_center_std` (no single surface at the box centre). The test applies
- *  to every box by default; `occlusion_check: dynamic` limits it to boxes of
- *  `dynamic_classes` (the centre of a chair or a table is deeper than its
- *  front by nature, so the test drops them whole).
+ *  `max_center_std` (no single surface at the box centre); unless the near
+ *  layer (depths within the margin of the object depth) spans the box
+ *  (`occlusion_span` of its width and of its height): then the nearest
+ *  surface is the detected object itself, one that is seen through (a
+ *  chair, a table), not something in front of it. The test applies to every
+ *  box by default; `occlusion_check: dynamic` limits it to boxes of
+ *  `dynamic_classes`.
  *
  *  Re-labelling: this classifier decides keypoints inside its boxes, also
  *  returning to Static keypoints an earlier BoxFilter dropped (reason
@@ -56,14 +60,15 @@ class DepthRepopulation : public KeypointClassifier {
 
  private:
   std::vector<int> classes_, dynamic_classes_{1};
-  double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3;
+  double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3, occlusion_span_ = 0.8,
+         overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
   bool exclude_overlap_ = true;
   enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
   std::map<int, double> margin_;
   double margin_default_ = 0.5;
   std::vector<BoxDepthStats> stats_;
-  std::vector<float> buf_, cbuf_;
+  std::vector<float> buf_, cbuf_, xs_, ys_;
 };
 
 }  // namespace dslam
