@@ -103,6 +103,27 @@ TEST(BoxFilter, ClassListMarginScoreAndEarlierLabels) {
   }
 }
 
+// A detection carried from an older frame (asynchronous detection) grows by
+// age_margin of its size per frame of age on each side.
+TEST(BoxFilter, CarriedDetectionsGrowWithTheirAge) {
+  Detections d;
+  d.boxes = {box(100, 100, 100, 100, 1)};
+  const std::vector<cv::Point2f> pts = {{95, 150}, {150, 93}, {88, 150}, {150, 150}};  // 5, 7 and 12 px outside
+  auto count = [&](int age, const std::string& yaml) {
+    auto bf = makeClassifier<BoxFilter>("BoxFilter", yaml);
+    Frame f = makeFrame(pts);
+    Detections a = d;
+    a.age_frames = age;
+    bf->classify(f, a, {});
+    return f.countLabel(KpLabel::Dynamic);
+  };
+  EXPECT_EQ(count(0, ""), 1u);                  // fresh: the box as detected
+  EXPECT_EQ(count(2, ""), 2u);                  // 2 frames old: 6 px more on each side (3 % x 100 px x 2)
+  EXPECT_EQ(count(3, ""), 3u);                  // 9 px
+  EXPECT_EQ(count(4, ""), 4u);                  // 12 px
+  EXPECT_EQ(count(4, "age_margin: 0"), 1u);     // off
+}
+
 TEST(BoxFilter, RejectsNonCocoClasses) {
   register_classifiers_plugins();
   auto p = create<KeypointClassifier>("dslam::BoxFilter");

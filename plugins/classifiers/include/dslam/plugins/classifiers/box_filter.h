@@ -26,6 +26,7 @@ class BoxFilter : public KeypointClassifier {
   std::vector<int> classes_{1};
   float margin_ = 0.f;
   double min_score_ = 0;
+  float age_margin_ = 0.03f;
 };
 
 }  // namespace dslam
