@@ -381,7 +381,9 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
   for (auto& m : f.meta) m.label = KpLabel::Dynamic;
   EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
   EXPECT_EQ(filter->stats().keyframe_requests, 1);
-  auto off = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // off by default
   for (auto& m : f.meta) m.label = KpLabel::Static;
+  auto dflt = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // on by default (new_object_keypoints 10)
+  EXPECT_TRUE(dflt->wantsKeyFrame(s.map, f, matched));
+  auto off = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 0}", atlas);
   EXPECT_FALSE(off->wantsKeyFrame(s.map, f, matched));
 }

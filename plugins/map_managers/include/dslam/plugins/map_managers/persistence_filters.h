@@ -98,7 +98,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   double max_range_ = 6.0, occlusion_margin_ = 0.3, min_free_fraction_ = 0.6;
   int min_place_keypoints_ = 8, min_support_points_ = 3;
   int min_expected_points_ = 8, max_descriptor_distance_ = 50;
-  int new_object_keypoints_ = 0;
+  int new_object_keypoints_ = 10;
   double new_object_gap_s_ = 1.0, last_request_t_ = -1e300;
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
   PersistenceStats stats_;
