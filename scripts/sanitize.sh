@@ -62,7 +62,7 @@ tsan)
   run baseline_parallel orbslam_baseline.yaml "$WX"           # local mapping thread
   run loop_parallel orbslam_baseline.yaml "$(render loop 1000)"  # loop closing thread + global BA
   # lights out: tracking lost, a new map, merged back; persistence filters on the mapping thread
-  run changing_dark synthetic/changing_slam.yaml "$(render shift_dark 450)"
+  run changing_dark synthetic/changing_slam.yaml "$(render shift_dark 570)"
   echo "tsan: clean"
   ;;
 *)

@@ -5,12 +5,14 @@
 // docs/changing.md, docs/results.md section 7.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "dslam/config/pipeline.h"
 #include "dslam/core/registry.h"
+#include "dslam/eval/eval.h"
 #include "dslam/eval/objects.h"
 #include "dslam/slam/system.h"
 #include "dslam/trajectory/io.h"
@@ -56,16 +58,50 @@ TEST(ChangingScenes, VanishingTracksAndSwitchesOffRemovedObjects) {
   EXPECT_GE(r.static_found, 2);   // the backpack and the monitor stay
 }
 
-TEST(ChangingScenes, ShiftDarkRelocalisesOnTheChangedScene) {
-  const std::string scene = test::syntheticSequence("shift_dark", 450, 640, 480);
+/** Position errors of `est` after SE(3) alignment on its poses before
+ *  `align_until`: the first `n` poses from `from` on. */
+static std::vector<double> errorsAfter(const Trajectory& gt, const Trajectory& est, double align_until, double from, size_t n) {
+  const eval::Association all = eval::associate(gt, est);
+  eval::Association before;
+  for (const auto& pr : all.pairs)
+    if (est.stamps[pr.second] < align_until) before.pairs.push_back(pr);
+  const eval::Alignment a = eval::alignTrajectories(gt, est, before, eval::Align::SE3);
+  std::vector<double> e;
+  for (const auto& [g, k] : all.pairs)
+    if (est.stamps[k] >= from && e.size() < n)
+      e.push_back((a.apply(est.poses[k].translation()) - gt.poses[g].translation()).norm());
+  return e;
+}
+
+// shift_dark (config/scenarios/shift_dark.yaml): lights out at 12 s (frames
+// 360-449) while five objects slide 0.6 m as a group; tracking is lost and a
+// new map is merged into the old one when the lights come back. The merge is
+// a trap: most matches are on the moved group.
+TEST(ChangingScenes, ShiftDarkFoolsTheBaselineNotChangingSlam) {
+  const std::string scene = test::syntheticSequence("shift_dark", 570, 640, 480);
+  const Trajectory gt = traj::readTum(scene + "/groundtruth.txt");
+  constexpr double kDark = 1012.0, kBack = 1015.0;  // start_time 1000, frames 360 and 450
+
+  const std::string base_out = test::tempDir("changing_shift_dark_base");
+  const RunSummary b = runOn("orbslam_baseline", scene, base_out);
+  ASSERT_TRUE(b.ate_rmse);
+  const std::vector<double> eb = errorsAfter(gt, traj::readTum(base_out + "/trajectory.txt"), kDark, kBack, 30);
+  ASSERT_EQ(eb.size(), 30u);
+  // Fooled: merged 0.6 m off (measured 0.60 m after the return, ATE 0.24 m).
+  EXPECT_GT(*std::min_element(eb.begin(), eb.end()), 0.3);
+  EXPECT_GT(*b.ate_rmse, 0.1);
+
   const std::string out = test::tempDir("changing_shift_dark");
   const RunSummary s = runOn("synthetic/changing_slam", scene, out);
   ASSERT_TRUE(s.ate_rmse);
-  EXPECT_EQ(s.tracked + 90, s.frames);  // frames 240-329 are dark
-  EXPECT_LT(*s.ate_rmse, 0.01);         // target 2 cm; measured 3.4 mm
+  EXPECT_GE(s.tracked + 92, s.frames);  // frames 360-449 are dark (and the first after them)
   EXPECT_EQ(s.maps, 1u);                // the map started in the dark is merged back
+  EXPECT_LT(*s.ate_rmse, 0.02);         // target 2 cm; measured 15 mm
+  EXPECT_GT(*b.ate_rmse, 3 * *s.ate_rmse);
+  const std::vector<double> e = errorsAfter(gt, traj::readTum(out + "/trajectory.txt"), kDark, kBack, 30);
+  ASSERT_EQ(e.size(), 30u);
+  EXPECT_LT(*std::max_element(e.begin(), e.end()), 0.05);  // target 5 cm
   const eval::ObjectEvalResult r = evaluate(out, scene);
   std::cout << eval::toText(r);
-  EXPECT_LT(r.align_ate, 0.01);
-  EXPECT_LT(r.ate, 0.01);
+  EXPECT_LT(r.align_ate, 0.02);
 }
