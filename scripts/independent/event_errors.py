@@ -36,6 +36,46 @@ def align(P, Q):
     return R, mq - R @ mp
 
 
+def associate(est, gt, max_dt=0.02):
+    """(t, estimate position, ground-truth position) of every estimate pose with a ground-truth pose within max_dt."""
+    gts = np.array(sorted(gt))
+    pairs = []
+    for t in sorted(est):
+        i = np.searchsorted(gts, t)
+        best = min((j for j in (i - 1, i) if 0 <= j < len(gts)), key=lambda j: abs(gts[j] - t))
+        if abs(gts[best] - t) < max_dt:
+            pairs.append((t, est[t], gt[gts[best]]))
+    return pairs
+
+
+def errors(run, gt_file, after_n=30, max_dt=0.02):
+    """One row per loop / merge event of RUN/events.jsonl: (event, frame, inliers, matches, correction_m,
+    error at the event, max error over the next after_n poses)."""
+    pairs = associate(read_tum(run + "/trajectory.txt"), read_tum(gt_file), max_dt)
+    frame_t = {}
+    for l in open(run + "/frames.csv"):
+        v = l.strip().split(",")
+        if v[0].isdigit():
+            frame_t[int(v[0])] = float(v[1])
+    rows = []
+    for l in open(run + "/events.jsonl"):
+        if not l.strip():
+            continue
+        e = json.loads(l)
+        if e.get("event") not in ("loop", "merge"):
+            continue
+        tf = frame_t[e["frame"]]
+        before = [p for p in pairs if p[0] < tf]
+        after = [p for p in pairs if p[0] >= tf][:after_n]
+        if len(before) < 3 or not after:
+            continue
+        R, t = align(np.array([p[1] for p in before]), np.array([p[2] for p in before]))
+        err = [np.linalg.norm(R @ p[1] + t - p[2]) for p in after]
+        rows.append((e["event"], e["frame"], e.get("inliers", -1), e.get("matches", -1),
+                     e.get("correction_m", float("nan")), err[0], max(err)))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run")
@@ -43,38 +83,13 @@ def main():
     ap.add_argument("--after", type=int, default=30)
     ap.add_argument("--max-dt", type=float, default=0.02)
     a = ap.parse_args()
-    est = read_tum(a.run + "/trajectory.txt")
-    gt = read_tum(a.gt)
-    gts = np.array(sorted(gt))
-    frame_t = {}
-    for l in open(a.run + "/frames.csv"):
-        v = l.strip().split(",")
-        if v[0].isdigit():
-            frame_t[int(v[0])] = float(v[1])
-    pairs = []
-    for t in sorted(est):
-        i = np.searchsorted(gts, t)
-        best = min((j for j in (i - 1, i) if 0 <= j < len(gts)), key=lambda j: abs(gts[j] - t))
-        if abs(gts[best] - t) < a.max_dt:
-            pairs.append((t, est[t], gt[gts[best]]))
-    events = [json.loads(l) for l in open(a.run + "/events.jsonl") if l.strip()]
-    events = [e for e in events if e.get("event") in ("loop", "merge")]
-    if not events:
+    rows = errors(a.run, a.gt, a.after, a.max_dt)
+    if not rows:
         print("no loop or merge events")
         return
     print("event  frame  inliers/matches  correction_m  error_at_event_m  max_error_next_%d_m" % a.after)
-    for e in events:
-        tf = frame_t[e["frame"]]
-        before = [p for p in pairs if p[0] < tf]
-        after = [p for p in pairs if p[0] >= tf][: a.after]
-        if len(before) < 3 or not after:
-            print("%-6s %5d  (too few poses around it)" % (e["event"], e["frame"]))
-            continue
-        R, t = align(np.array([p[1] for p in before]), np.array([p[2] for p in before]))
-        err = [np.linalg.norm(R @ p[1] + t - p[2]) for p in after]
-        print("%-6s %5d  %4d/%-4d        %8.3f      %8.3f          %8.3f" % (
-            e["event"], e["frame"], e.get("inliers", -1), e.get("matches", -1), e.get("correction_m", float("nan")),
-            err[0], max(err)))
+    for r in rows:
+        print("%-6s %5d  %4d/%-4d        %8.3f      %8.3f          %8.3f" % r)
 
 
 if __name__ == "__main__":

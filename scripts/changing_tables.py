@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Tables of docs/results.md section 7 from a run of config/studies/changing.yaml.
+
+  changing_tables.py STUDY_OUT [--dslam build/bin/dslam] [--variants changing_slam,...]
+
+For each variant and changing scene (the cells STUDY_OUT/cells/<variant>.<scene>.r0):
+the semantic object map scored by `dslam eval objects` (static objects found,
+stale objects, moved objects found and their centroid error, removed/replaced
+objects inactive, added objects found, false objects); every loop closure and
+map merge with the error of its correction (scripts/independent/event_errors.py);
+on shift_dark the pose error of the 30 frames after the lights come back
+(aligned on the frames before the dark; scripts/independent/after_return.py's
+definition); the object layer's cost (timing.csv column map_manager, per
+keyframe, and spread over all frames). numpy only, no dslam code but the CLI.
+"""
+import argparse
+import glob
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "independent"))
+import event_errors  # noqa: E402
+
+SCENES = ["one_chair", "vanishing", "replacing", "shift", "shift_dark"]
+DARK = {"shift_dark": (1012.0, 1015.0)}  # lights out at frame 360, back at frame 450 (start_time 1000, 30 Hz)
+
+
+def scene_dir(out, scene):
+    found = sorted(d for d in glob.glob(os.path.join(out, "scenes", scene + "-*")) if ".tmp" not in d)
+    return found[-1] if found else None
+
+
+def eval_objects(dslam, run, scene):
+    with tempfile.NamedTemporaryFile(suffix=".json") as tf:
+        r = subprocess.run([dslam, "eval", "objects", run, scene, "--json", tf.name], capture_output=True, text=True)
+        if r.returncode != 0:
+            return None
+        return json.load(open(tf.name))
+
+
+def after_return(run, gt_file, until, back, n=30):
+    """Max and median position error of the first n poses from `back` on, aligned on the poses before `until`."""
+    pairs = event_errors.associate(event_errors.read_tum(run + "/trajectory.txt"), event_errors.read_tum(gt_file))
+    before = [p for p in pairs if p[0] < until]
+    after = [p for p in pairs if p[0] >= back][:n]
+    if len(before) < 3 or not after:
+        return None
+    R, t = event_errors.align(np.array([p[1] for p in before]), np.array([p[2] for p in before]))
+    e = [np.linalg.norm(R @ p[1] + t - p[2]) for p in after]
+    return max(e), float(np.median(e))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out")
+    ap.add_argument("--dslam", default="build/bin/dslam")
+    ap.add_argument("--variants", default="changing_slam,changing_slam_no_object_keyframes")
+    a = ap.parse_args()
+    variants = a.variants.split(",")
+
+    print("Semantic object map at the end (`dslam eval objects RUN SCENE`):\n")
+    print("| variant | scene | static objects found | stale | moved found (max centroid-to-box error) "
+          "| removed / replaced inactive | added found | false |")
+    print("|---|---|---|---|---|---|---|---|")
+    tot = {}
+    for v in variants:
+        sf = st = 0
+        for sc in SCENES:
+            run, scene = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run"), scene_dir(a.out, sc)
+            if not scene or not os.path.exists(run + "/objects.json"):
+                continue
+            m = eval_objects(a.dslam, run, scene)
+            if m is None:
+                print(f"| {v} | {sc} | (eval failed) | | | | | |")
+                continue
+            sf, st = sf + m["static_found"], st + m["static_total"]
+            dash = lambda f, t: f"{f}/{t}" if t else "-"  # noqa: E731
+            moved = dash(m["moved_found"], m["moved_total"])
+            if m["moved_total"] and m["moved_found"]:
+                moved += " (%.3f m)" % m["moved_error_max"]
+            print(f"| {v} | {sc} | {m['static_found']}/{m['static_total']} | {m['stale']} | {moved} "
+                  f"| {dash(m['gone_inactive'], m['gone_total'])} | {dash(m['added_found'], m['added_total'])} "
+                  f"| {m['false_objects']} |")
+        tot[v] = (sf, st)
+    print()
+    for v, (f, t) in tot.items():
+        if t:
+            print(f"- {v}: static objects found {f}/{t} = {100.0 * f / t:.0f} %")
+
+    print("\nLoop closures and map merges (every event of every cell; error = position error of the poses from "
+          "the event on, the trajectory aligned on its poses before it):\n")
+    print("| cell | event | frame | inliers/matches | correction [m] | error at the event [m] | max error, next 30 [m] |")
+    print("|---|---|---|---|---|---|---|")
+    any_event = False
+    for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.r0"))):
+        name = os.path.basename(cell)[:-3]
+        sc = name.split(".")[1]
+        scene, run = scene_dir(a.out, sc), os.path.join(cell, "run")
+        if not scene or not os.path.exists(run + "/events.jsonl"):
+            continue
+        for row in event_errors.errors(run, scene + "/groundtruth.txt"):
+            any_event = True
+            print("| %s | %s | %d | %d/%d | %.3f | %.3f | %.3f |" % ((name,) + row))
+    if not any_event:
+        print("| (none) | | | | | | |")
+
+    print("\nAfter the return on shift_dark (aligned on the frames before the dark, the 30 frames from the "
+          "lights' return):\n")
+    print("| variant | max [m] | median [m] |")
+    print("|---|---|---|")
+    for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.shift_dark.r0"))):
+        scene = scene_dir(a.out, "shift_dark")
+        r = after_return(os.path.join(cell, "run"), scene + "/groundtruth.txt", *DARK["shift_dark"])
+        if r:
+            print("| %s | %.3f | %.3f |" % (os.path.basename(cell).split(".")[0], r[0], r[1]))
+
+    print("\nObject layer cost (timing.csv map_manager: median / max per keyframe, mean per frame) [ms]:\n")
+    print("| variant | scene | median | max | per frame |")
+    print("|---|---|---|---|---|")
+    for v in variants:
+        for sc in SCENES + ["walking_xyz"]:
+            f = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run", "timing.csv")
+            if not os.path.exists(f):
+                continue
+            rows = [l.rstrip("\n").split(",") for l in open(f)]
+            col = rows[0].index("map_manager_ms")
+            vals = [float(r[col]) for r in rows[1:] if len(r) > col and r[col]]
+            if vals:
+                print("| %s | %s | %.2f | %.2f | %.3f |" % (v, sc, np.median(vals), max(vals), sum(vals) / (len(rows) - 1)))
+
+
+if __name__ == "__main__":
+    main()
