@@ -90,7 +90,9 @@ namespace dslam {
 // concurrently with ORB extraction; the result (or the exception) comes back
 // through a promise. Sync: the tracking thread waits for it. Async: it takes
 // the latest finished result and carries it to the current frame by optical
-// flow (detection_carry.h); a new job starts whenever the worker is free.
+// flow (detection_carry.h); a new job starts whenever the worker is free and
+// `every` frames have passed since the last one started (every: 1 = as soon
+// as it is free).
 // ---------------------------------------------------------------------------
 
 struct System::DetectorSlot {
@@ -108,6 +110,7 @@ struct System::DetectorSlot {
   std::future<std::pair<Detections, double>> pending;
   cv::Mat pending_gray;  ///< grey image of the frame the pending job detects
   bool submitted_now = false, fresh = false, ran = false;
+  int64_t last_submit = -1000000;  ///< frame count when the last asynchronous job started
   Worker<Job> worker{[this](Job& j) {
     try {
       const double t0 = nowSeconds();
@@ -333,7 +336,8 @@ void System::addDetector(const std::string& name, std::shared_ptr<Detector> det,
   if (detection == DetectionMode::Async && !parallel)
     DSLAM_LOG(Info, "detector '" << name << "': detection: async needs mode: parallel; runs synchronously");
   if (s->async && s->every > 1)
-    DSLAM_LOG(Info, "detector '" << name << "': every: " << s->every << " is ignored with asynchronous detection");
+    DSLAM_LOG(Info, "detector '" << name << "': asynchronous, a new detection at most every " << s->every
+                                 << " frames");
   if (parallel) s->worker.start();
   detectors_.push_back(std::move(s));
 }
@@ -370,9 +374,11 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
         s.fresh = true;
         timer_.add("detector", s.last.frame_index, ms);
       }
-      if (!s.pending.valid()) {
+      const auto n = static_cast<int64_t>(frames_);
+      if (!s.pending.valid() && n - s.last_submit >= s.every) {
         s.submit(in);
         s.submitted_now = true;
+        s.last_submit = n;
       }
       continue;
     }

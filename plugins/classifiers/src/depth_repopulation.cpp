@@ -138,6 +138,35 @@ cv::Rect pixelRect(const cv::Rect2f& r, const cv::Mat& img) {
          cv::Rect(0, 0, img.cols, img.rows);
 }
 
+/** Calls visit(x, y, depth) for the valid depths of `box` outside the
+ *  `shared` overlaps: every `stride`-th pixel of the depth image, or, without
+ *  one, every keypoint in the box with a depth. */
+template <class Visit>
+void forBoxDepths(const Frame& frame, const cv::Rect2f& box, const std::vector<cv::Rect2f>& shared, int stride,
+                  Visit&& visit) {
+  const cv::Mat& depth = frame.input.depth;
+  if (depth.empty()) {
+    for (size_t i = 0; i < frame.size(); i++) {
+      const cv::Point2f& pt = frame.keypoints[i].pt;
+      if (!cls::inBox(pt, box) || inAny(shared, pt.x, pt.y)) continue;
+      const float d = keypointDepth(frame, i);
+      if (validDepth(d)) visit(pt.x, pt.y, d);
+    }
+    return;
+  }
+  const cv::Rect r = pixelRect(box, depth);
+  for (int y = r.y; y < r.y + r.height; y += stride) {
+    const float* row = depth.ptr<float>(y);
+    for (int x = r.x; x < r.x + r.width; x += stride) {
+      const float d = row[x];
+      if (!validDepth(d)) continue;
+      const auto fx = static_cast<float>(x), fy = static_cast<float>(y);
+      if (!shared.empty() && inAny(shared, fx, fy)) continue;
+      visit(fx, fy, d);
+    }
+  }
+}
+
 /** Depth samples of a box (every `stride`-th pixel, outside the `shared`
  *  overlaps) into `buf` and of its central window (every pixel, also outside
  *  the overlaps: a labelled object in front is no unlabelled occluder) into
@@ -147,35 +176,9 @@ void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f
                      std::vector<float>& cbuf) {
   buf.clear();
   cbuf.clear();
-  const cv::Mat& depth = frame.input.depth;
-  if (depth.empty()) {
-    for (size_t i = 0; i < frame.size(); i++) {
-      const cv::Point2f& pt = frame.keypoints[i].pt;
-      if (!cls::inBox(pt, box)) continue;
-      const float d = keypointDepth(frame, i);
-      if (!validDepth(d)) continue;
-      if (inAny(shared, pt.x, pt.y)) continue;
-      buf.push_back(d);
-      if (cls::inBox(pt, center)) cbuf.push_back(d);
-    }
-    return;
-  }
-  const cv::Rect r = pixelRect(box, depth), rc = pixelRect(center, depth);
-  for (int y = r.y; y < r.y + r.height; y += stride) {
-    const float* row = depth.ptr<float>(y);
-    for (int x = r.x; x < r.x + r.width; x += stride) {
-      const float d = row[x];
-      if (!validDepth(d)) continue;
-      if (!shared.empty() && inAny(shared, static_cast<float>(x), static_cast<float>(y))) continue;
-      buf.push_back(d);
-    }
-  }
-  for (int y = rc.y; y < rc.y + rc.height; y++) {  // central window: every pixel
-    const float* row = depth.ptr<float>(y);
-    for (int x = rc.x; x < rc.x + rc.width; x++)
-      if (validDepth(row[x]) && (shared.empty() || !inAny(shared, static_cast<float>(x), static_cast<float>(y))))
-        cbuf.push_back(row[x]);
-  }
+  forBoxDepths(frame, box, shared, stride, [&](float, float, float d) { buf.push_back(d); });
+  // Central window: every pixel (or its keypoints).
+  forBoxDepths(frame, center, shared, 1, [&](float, float, float d) { cbuf.push_back(d); });
 }
 
 /** Extent of the box's near layer (depth in (0, max_depth]) as fractions
@@ -187,27 +190,11 @@ void nearLayerSpan(const Frame& frame, const cv::Rect2f& box, const std::vector<
                    float max_depth, std::vector<float>& xs, std::vector<float>& ys, float& span_x, float& span_y) {
   xs.clear();
   ys.clear();
-  const cv::Mat& depth = frame.input.depth;
-  if (depth.empty()) {
-    for (size_t i = 0; i < frame.size(); i++) {
-      const cv::Point2f& pt = frame.keypoints[i].pt;
-      if (!cls::inBox(pt, box) || inAny(shared, pt.x, pt.y)) continue;
-      const float d = keypointDepth(frame, i);
-      if (validDepth(d) && d <= max_depth) xs.push_back(pt.x), ys.push_back(pt.y);
-    }
-  } else {
-    const cv::Rect r = pixelRect(box, depth);
-    for (int y = r.y; y < r.y + r.height; y += stride) {
-      const float* row = depth.ptr<float>(y);
-      for (int x = r.x; x < r.x + r.width; x += stride) {
-        const float d = row[x];
-        if (!validDepth(d) || d > max_depth) continue;
-        if (!shared.empty() && inAny(shared, static_cast<float>(x), static_cast<float>(y))) continue;
-        xs.push_back(static_cast<float>(x));
-        ys.push_back(static_cast<float>(y));
-      }
-    }
-  }
+  forBoxDepths(frame, box, shared, stride, [&](float x, float y, float d) {
+    if (d > max_depth) return;
+    xs.push_back(x);
+    ys.push_back(y);
+  });
   auto extent = [](std::vector<float>& v) {
     if (v.size() < 2) return 0.f;
     const size_t lo = v.size() / 50, hi = v.size() - 1 - v.size() / 50;
