@@ -20,7 +20,9 @@ struct BoxDepthStats {
   float center_depth = 0;  ///< median over the central window (0 = no valid sample)
   float center_std = 0;    ///< std over the central window
   float margin = 0;        ///< class depth margin used
-  float near_span_x = 0, near_span_y = 0;  ///< extent of the near layer (depth <= object depth + margin), fraction of the box
+  /** Extent of the near layer (depth <= object depth + margin) as a fraction
+   *  of the box width / height (computed when the centre test fired). */
+  float near_span_x = 0, near_span_y = 0;
   bool occluded = false;   ///< unlabelled occluder detected: keypoints unusable
 };
 
