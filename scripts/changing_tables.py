@@ -25,6 +25,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "independent"))
 import event_errors  # noqa: E402
+from after_return import after_return  # noqa: E402
 
 SCENES = ["one_chair", "vanishing", "replacing", "shift", "shift_dark"]
 DARK = {"shift_dark": (1012.0, 1015.0)}  # lights out at frame 360, back at frame 450 (start_time 1000, 30 Hz)
@@ -41,18 +42,6 @@ def eval_objects(dslam, run, scene):
         if r.returncode != 0:
             return None
         return json.load(open(tf.name))
-
-
-def after_return(run, gt_file, until, back, n=30):
-    """Max and median position error of the first n poses from `back` on, aligned on the poses before `until`."""
-    pairs = event_errors.associate(event_errors.read_tum(run + "/trajectory.txt"), event_errors.read_tum(gt_file))
-    before = [p for p in pairs if p[0] < until]
-    after = [p for p in pairs if p[0] >= back][:n]
-    if len(before) < 3 or not after:
-        return None
-    R, t = event_errors.align(np.array([p[1] for p in before]), np.array([p[2] for p in before]))
-    e = [np.linalg.norm(R @ p[1] + t - p[2]) for p in after]
-    return max(e), float(np.median(e))
 
 
 def main():
@@ -115,9 +104,10 @@ def main():
     print("|---|---|---|")
     for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.shift_dark.r0"))):
         scene = scene_dir(a.out, "shift_dark")
-        r = after_return(os.path.join(cell, "run"), scene + "/groundtruth.txt", *DARK["shift_dark"])
-        if r:
-            print("| %s | %.3f | %.3f |" % (os.path.basename(cell).split(".")[0], r[0], r[1]))
+        _, _, after, _ = after_return(scene + "/groundtruth.txt", os.path.join(cell, "run", "trajectory.txt"),
+                                      *DARK["shift_dark"], 30)
+        if after:
+            print("| %s | %.3f | %.3f |" % (os.path.basename(cell).split(".")[0], max(after), np.median(after)))
 
     print("\nObject layer cost (timing.csv map_manager: median / max per keyframe, mean per frame) [ms]:\n")
     print("| variant | scene | median | max | per frame |")
@@ -131,7 +121,8 @@ def main():
             col = rows[0].index("map_manager_ms")
             vals = [float(r[col]) for r in rows[1:] if len(r) > col and r[col]]
             if vals:
-                print("| %s | %s | %.2f | %.2f | %.3f |" % (v, sc, np.median(vals), max(vals), sum(vals) / (len(rows) - 1)))
+                print("| %s | %s | %.2f | %.2f | %.3f |"
+                      % (v, sc, np.median(vals), max(vals), sum(vals) / (len(rows) - 1)))
 
 
 if __name__ == "__main__":

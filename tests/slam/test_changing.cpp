@@ -61,7 +61,8 @@ TEST(ChangingScenes, VanishingTracksAndSwitchesOffRemovedObjects) {
 
 /** Position errors of `est` after SE(3) alignment on its poses before
  *  `align_until`: the first `n` poses from `from` on. */
-static std::vector<double> errorsAfter(const Trajectory& gt, const Trajectory& est, double align_until, double from, size_t n) {
+static std::vector<double> errorsAfter(const Trajectory& gt, const Trajectory& est, double align_until, double from,
+                                       size_t n) {
   const eval::Association all = eval::associate(gt, est);
   eval::Association before;
   for (const auto& pr : all.pairs)

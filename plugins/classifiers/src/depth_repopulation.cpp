@@ -253,7 +253,8 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
           // Another labelled object in front is no unlabelled occluder: its box
           // widened by overlap_dilation (detector boxes are not exact) is left out.
           const cv::Rect2f& ob = det.boxes[o].box;
-          const float dx = ob.width * static_cast<float>(overlap_dilation_), dy = ob.height * static_cast<float>(overlap_dilation_);
+          const auto dil = static_cast<float>(overlap_dilation_);
+          const float dx = ob.width * dil, dy = ob.height * dil;
           const cv::Rect2f x = box & cv::Rect2f(ob.x - dx, ob.y - dy, ob.width + 2 * dx, ob.height + 2 * dy);
           if (x.width > 0 && x.height > 0) shared.push_back(x);
         }
