@@ -8,7 +8,7 @@ PKGS=(
   build-essential cmake ninja-build ccache pkg-config git
   libeigen3-dev libopencv-dev libsuitesparse-dev libceres-dev
   libmrpt-dev mrpt-apps liboctomap-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libdeflate-dev
   python3 python3-matplotlib python3-numpy
   parallel
 )

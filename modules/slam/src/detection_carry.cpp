@@ -38,46 +38,30 @@ void pasteShifted(const cv::Mat& src, cv::Mat& dst, const cv::Rect& roi, T value
 
 }  // namespace
 
-RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect& roi_in, const cv::Mat& mask,
-                          const CarryParams& p) {
+namespace {
+
+/** One region to move: `mask` (CV_8U, roi-sized, non-zero = inside) or empty
+ *  for the whole roi. */
+struct Region {
+  cv::Rect roi;
+  cv::Mat mask;
+};
+
+/** Shift and scale from the corner pairs a -> b. */
+RegionMotion motionFromPairs(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
   RegionMotion m;
-  const cv::Rect roi = clampRect(roi_in, from.size());
-  if (roi.width < 4 || roi.height < 4 || from.empty() || to.empty() || from.size() != to.size()) return m;
-  std::vector<cv::Point2f> p0;
-  cv::goodFeaturesToTrack(from(roi), p0, p.max_corners, 0.01, 3, mask.empty() ? cv::noArray() : mask(roi), 3);
-  if (static_cast<int>(p0.size()) < p.min_points) return m;
-  for (auto& q : p0) q += cv::Point2f(static_cast<float>(roi.x), static_cast<float>(roi.y));
-  std::vector<cv::Point2f> p1, back;
-  std::vector<uchar> st1, st2;
-  std::vector<float> err;
-  const cv::Size win(p.lk_window, p.lk_window);
-  const cv::TermCriteria tc(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-  cv::calcOpticalFlowPyrLK(from, to, p0, p1, st1, err, win, p.lk_levels - 1, tc);
-  cv::calcOpticalFlowPyrLK(to, from, p1, back, st2, err, win, p.lk_levels - 1, tc);
-  std::vector<cv::Point2f> a, b;
-  for (size_t i = 0; i < p0.size(); i++) {
-    if (!st1[i] || !st2[i]) continue;
-    const cv::Point2f e = back[i] - p0[i];
-    if (std::hypot(e.x, e.y) > p.max_fb_error) continue;
-    a.push_back(p0[i]);
-    b.push_back(p1[i]);
-  }
-  if (static_cast<int>(a.size()) < p.min_points) return m;
-  std::vector<float> dx, dy;
+  std::vector<float> dx, dy, ax, ay, bx, by;
   for (size_t i = 0; i < a.size(); i++) {
     dx.push_back(b[i].x - a[i].x);
     dy.push_back(b[i].y - a[i].y);
-  }
-  m.shift = {median(dx), median(dy)};
-  m.points = static_cast<int>(a.size());
-  // Scale: median ratio of the distances to the median point, after / before.
-  std::vector<float> ax, ay, bx, by;
-  for (size_t i = 0; i < a.size(); i++) {
     ax.push_back(a[i].x);
     ay.push_back(a[i].y);
     bx.push_back(b[i].x);
     by.push_back(b[i].y);
   }
+  m.shift = {median(dx), median(dy)};
+  m.points = static_cast<int>(a.size());
+  // Scale: median ratio of the distances to the median point, after / before.
   const cv::Point2f ca(median(ax), median(ay)), cb(median(bx), median(by));
   std::vector<float> ratios;
   for (size_t i = 0; i < a.size(); i++) {
@@ -88,41 +72,97 @@ RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect
   return m;
 }
 
+/** The motions of all `regions` from `from` to `to`: corners of every region
+ *  tracked in one forward and one backward Lucas-Kanade pass over pyramids
+ *  built once (per-region calls would rebuild both pyramids each time). */
+std::vector<RegionMotion> regionMotions(const cv::Mat& from, const cv::Mat& to, const std::vector<Region>& regions,
+                                        const CarryParams& p) {
+  std::vector<RegionMotion> out(regions.size());
+  if (from.empty() || to.empty() || from.size() != to.size()) return out;
+  std::vector<cv::Point2f> p0;
+  std::vector<std::pair<size_t, size_t>> span(regions.size(), {0, 0});  // [begin, end) in p0
+  for (size_t r = 0; r < regions.size(); r++) {
+    const cv::Rect roi = clampRect(regions[r].roi, from.size());
+    if (roi.width < 4 || roi.height < 4) continue;
+    std::vector<cv::Point2f> c;
+    cv::goodFeaturesToTrack(from(roi), c, p.max_corners, 0.01, 3,
+                            regions[r].mask.empty() ? cv::noArray() : regions[r].mask, 3);
+    if (static_cast<int>(c.size()) < p.min_points) continue;
+    span[r] = {p0.size(), p0.size() + c.size()};
+    for (auto& q : c) p0.push_back(q + cv::Point2f(static_cast<float>(roi.x), static_cast<float>(roi.y)));
+  }
+  if (p0.empty()) return out;
+  const cv::Size win(p.lk_window, p.lk_window);
+  // Kept between calls: rebuilt in place instead of allocating (and page
+  // faulting) megabytes of pyramid and derivative images every frame.
+  thread_local std::vector<cv::Mat> pyr_from, pyr_to;
+  const int levels = cv::buildOpticalFlowPyramid(from, pyr_from, win, p.lk_levels - 1);
+  cv::buildOpticalFlowPyramid(to, pyr_to, win, p.lk_levels - 1);
+  std::vector<cv::Point2f> p1, back;
+  std::vector<uchar> st1, st2;
+  std::vector<float> err;
+  const cv::TermCriteria tc(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+  cv::calcOpticalFlowPyrLK(pyr_from, pyr_to, p0, p1, st1, err, win, levels, tc);
+  cv::calcOpticalFlowPyrLK(pyr_to, pyr_from, p1, back, st2, err, win, levels, tc);
+  for (size_t r = 0; r < regions.size(); r++) {
+    std::vector<cv::Point2f> a, b;
+    for (size_t i = span[r].first; i < span[r].second; i++) {
+      if (!st1[i] || !st2[i]) continue;
+      const cv::Point2f e = back[i] - p0[i];
+      if (std::hypot(e.x, e.y) > p.max_fb_error) continue;
+      a.push_back(p0[i]);
+      b.push_back(p1[i]);
+    }
+    if (static_cast<int>(a.size()) >= p.min_points) out[r] = motionFromPairs(a, b);
+  }
+  return out;
+}
+
+}  // namespace
+
+RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect& roi_in, const cv::Mat& mask,
+                          const CarryParams& p) {
+  const cv::Rect roi = clampRect(roi_in, from.size());
+  if (roi.area() == 0) return {};
+  return regionMotions(from, to, {Region{roi, mask.empty() ? cv::Mat() : mask(roi)}}, p)[0];
+}
+
 Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::Mat& to, int age,
                            const CarryParams& p) {
   Detections out = d;
   out.age_frames = age;
   if (from.empty() || to.empty() || from.data == to.data) return out;
   const cv::Size size = from.size();
+  // Every region of the detection (boxes, panoptic segments, connected
+  // regions of semantic classes) is collected first, then all are tracked
+  // in one pass.
+  std::vector<Region> regions;
   // Boxes: corners of the central part; moved and scaled about their centre.
-  for (auto& bb : out.boxes) {
+  const float f = static_cast<float>(p.inner_fraction);
+  for (const auto& bb : out.boxes) {
     const cv::Rect2f& r = bb.box;
-    const float f = static_cast<float>(p.inner_fraction);
-    const cv::Rect inner(cvRound(r.x + r.width * (1 - f) / 2), cvRound(r.y + r.height * (1 - f) / 2),
-                         cvRound(r.width * f), cvRound(r.height * f));
-    const RegionMotion m = regionMotion(from, to, inner, cv::Mat(), p);
-    if (m.points == 0) continue;
-    const cv::Point2f c(r.x + r.width / 2 + m.shift.x, r.y + r.height / 2 + m.shift.y);
-    const float w = r.width * m.scale, h = r.height * m.scale;
-    bb.box = cv::Rect2f(c.x - w / 2, c.y - h / 2, w, h);
+    regions.push_back({clampRect(cv::Rect(cvRound(r.x + r.width * (1 - f) / 2), cvRound(r.y + r.height * (1 - f) / 2),
+                                          cvRound(r.width * f), cvRound(r.height * f)),
+                                 size),
+                       cv::Mat()});
   }
   // Panoptic segments: each moved by its own flow (translation).
-  if (!d.panoptic.empty() && d.panoptic.size() == size) {
-    out.panoptic = cv::Mat(size, CV_32S, cv::Scalar(0));  // a new buffer (d's is shared by the copy)
-    for (auto& seg : out.segments) {
+  const bool panoptic = !d.panoptic.empty() && d.panoptic.size() == size;
+  const size_t first_segment = regions.size();
+  if (panoptic)
+    for (const auto& seg : out.segments) {
       const cv::Rect roi = clampRect(seg.bbox, size);
-      if (roi.area() == 0) continue;
-      cv::Mat mask = cv::Mat::zeros(size, CV_8U);
-      mask(roi).setTo(255, d.panoptic(roi) == seg.id);
-      const RegionMotion m = regionMotion(from, to, roi, mask, p);
-      const cv::Point s(cvRound(m.shift.x), cvRound(m.shift.y));
-      pasteShifted<int32_t>(d.panoptic, out.panoptic, roi, seg.id, s);
-      seg.bbox = clampRect(seg.bbox + s, size);
+      regions.push_back({roi, roi.area() ? cv::Mat(d.panoptic(roi) == seg.id) : cv::Mat()});
     }
-  }
   // Semantic image: each connected region of each class moved by its flow.
-  if (!d.semantic.empty() && d.semantic.size() == size) {
-    out.semantic = cv::Mat(size, CV_8U, cv::Scalar(255));
+  struct Component {
+    int cls, label;
+    cv::Mat labels;  ///< shared per class
+  };
+  std::vector<Component> components;
+  const bool semantic = !d.semantic.empty() && d.semantic.size() == size;
+  const size_t first_component = regions.size();
+  if (semantic) {
     bool present[256] = {false};
     for (int y = 0; y < size.height; y++) {
       const uchar* row = d.semantic.ptr<uchar>(y);
@@ -130,24 +170,53 @@ Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::M
     }
     for (int c = 0; c < 255; c++) {
       if (!present[c]) continue;
-      const cv::Mat cls = d.semantic == c;
       cv::Mat labels, stats, centroids;
-      const int n = cv::connectedComponentsWithStats(cls, labels, stats, centroids, 8, CV_32S);
+      const int n = cv::connectedComponentsWithStats(d.semantic == c, labels, stats, centroids, 8, CV_32S);
       for (int k = 1; k < n; k++) {
         const cv::Rect roi(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
                            stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
-        const cv::Mat comp = labels == k;
-        const RegionMotion m = regionMotion(from, to, roi, comp, p);
-        const cv::Point s(cvRound(m.shift.x), cvRound(m.shift.y));
-        for (int y = roi.y; y < roi.y + roi.height; y++) {
-          const int yd = y + s.y;
-          if (yd < 0 || yd >= size.height) continue;
-          const int* l = labels.ptr<int>(y);
-          uchar* o = out.semantic.ptr<uchar>(yd);
-          for (int x = roi.x; x < roi.x + roi.width; x++) {
-            const int xd = x + s.x;
-            if (l[x] == k && xd >= 0 && xd < size.width) o[xd] = static_cast<uchar>(c);
-          }
+        regions.push_back({roi, cv::Mat(labels(roi) == k)});
+        components.push_back({c, k, labels});
+      }
+    }
+  }
+  const std::vector<RegionMotion> motion = regionMotions(from, to, regions, p);
+
+  for (size_t i = 0; i < out.boxes.size(); i++) {
+    const RegionMotion& m = motion[i];
+    if (m.points == 0) continue;
+    const cv::Rect2f& r = out.boxes[i].box;
+    const cv::Point2f c(r.x + r.width / 2 + m.shift.x, r.y + r.height / 2 + m.shift.y);
+    const float w = r.width * m.scale, h = r.height * m.scale;
+    out.boxes[i].box = cv::Rect2f(c.x - w / 2, c.y - h / 2, w, h);
+  }
+  if (panoptic) {
+    out.panoptic = cv::Mat(size, CV_32S, cv::Scalar(0));  // a new buffer (d's is shared by the copy)
+    for (size_t i = 0; i < out.segments.size(); i++) {
+      auto& seg = out.segments[i];
+      const cv::Rect roi = regions[first_segment + i].roi;
+      if (roi.area() == 0) continue;
+      const RegionMotion& m = motion[first_segment + i];
+      const cv::Point s(cvRound(m.shift.x), cvRound(m.shift.y));
+      pasteShifted<int32_t>(d.panoptic, out.panoptic, roi, seg.id, s);
+      seg.bbox = clampRect(seg.bbox + s, size);
+    }
+  }
+  if (semantic) {
+    out.semantic = cv::Mat(size, CV_8U, cv::Scalar(255));
+    for (size_t i = 0; i < components.size(); i++) {
+      const Component& comp = components[i];
+      const cv::Rect roi = regions[first_component + i].roi;
+      const RegionMotion& m = motion[first_component + i];
+      const cv::Point s(cvRound(m.shift.x), cvRound(m.shift.y));
+      for (int y = roi.y; y < roi.y + roi.height; y++) {
+        const int yd = y + s.y;
+        if (yd < 0 || yd >= size.height) continue;
+        const int* l = comp.labels.ptr<int>(y);
+        uchar* o = out.semantic.ptr<uchar>(yd);
+        for (int x = roi.x; x < roi.x + roi.width; x++) {
+          const int xd = x + s.x;
+          if (l[x] == comp.label && xd >= 0 && xd < size.width) o[xd] = static_cast<uchar>(comp.cls);
         }
       }
     }

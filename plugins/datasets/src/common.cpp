@@ -11,6 +11,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
+#include "dslam/core/png.h"
 
 namespace fs = std::filesystem;
 
@@ -20,7 +21,7 @@ cv::Mat readImage(const std::string& path, size_t frame, const std::string& what
   cv::Mat m;
   if (fileExists(path)) {
     try {
-      m = cv::imread(path, flags);
+      m = readImageFile(path, flags);  // PNG through the fast decoder (dslam/core/png.h)
     } catch (const cv::Exception& e) {
       throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path + " (" + e.what() + ")");
     }

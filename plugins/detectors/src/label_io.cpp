@@ -17,6 +17,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/paths.h"
+#include "dslam/core/png.h"
 #include "label_json.h"
 
 namespace fs = std::filesystem;
@@ -115,7 +116,7 @@ void checkPngHeader(const std::string& file, const std::string& what) {
 cv::Mat readImage(const std::string& file, int flags, const std::string& what) {
   if (!fileExists(file)) throw DataError(what + " not found: " + file);
   checkPngHeader(file, what);
-  cv::Mat m = cv::imread(file, flags);
+  cv::Mat m = readImageFile(file, flags);
   if (m.empty()) throw DataError("cannot read " + what + " " + file + " (corrupt or unsupported)");
   return m;
 }

@@ -1,0 +1,29 @@
+#pragma once
+/** \file png.h
+ *  Fast decoding of the PNG layouts datasets use (TUM/Bonn colour and 16-bit
+ *  depth, `dslam synth` output, label images). Every run decodes every frame
+ *  and decoding was the largest single CPU cost of an RGB-D run (zlib inflate
+ *  and libpng unfiltering, about a quarter of a `crowd_slam` run's CPU); this
+ *  decoder inflates with libdeflate and unfilters whole pixels at a time. It
+ *  returns exactly the pixels cv::imread returns (tested byte for byte) and
+ *  declines every file it does not handle, so callers fall back to cv::imread
+ *  and keep its behaviour and error messages. */
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace dslam {
+
+/** Decodes the PNG file `path` as cv::imread(path, flags) would, for
+ *  non-interlaced 8-bit grey / RGB / RGBA and 16-bit grey images with flags
+ *  cv::IMREAD_UNCHANGED, 8-bit grey and 16-bit grey with cv::IMREAD_ANYDEPTH,
+ *  8-bit RGB with cv::IMREAD_COLOR and 8-bit grey with cv::IMREAD_GRAYSCALE.
+ *  Returns an empty Mat for anything else (other layouts or flags, palette,
+ *  transparency or EXIF chunks, a missing, truncated or damaged file: chunk
+ *  CRCs and the zlib checksum are verified): use cv::imread then. */
+cv::Mat readPngFast(const std::string& path, int flags);
+
+/** readPngFast(path, flags), or cv::imread(path, flags) when it declines. */
+cv::Mat readImageFile(const std::string& path, int flags);
+
+}  // namespace dslam

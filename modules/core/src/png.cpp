@@ -1,0 +1,169 @@
+#include "dslam/core/png.h"
+
+#include <libdeflate.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+namespace dslam {
+
+namespace {
+
+uint32_t be32(const unsigned char* p) {
+  return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
+}
+
+bool readFile(const std::string& path, std::vector<unsigned char>& buf) {
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return false;
+  const long n = std::ftell(f.get());
+  if (n <= 0 || std::fseek(f.get(), 0, SEEK_SET) != 0) return false;
+  buf.resize(static_cast<size_t>(n));
+  return std::fread(buf.data(), 1, buf.size(), f.get()) == buf.size();
+}
+
+/** Sub filter: each byte plus the byte one pixel before it. The running
+ *  pixel stays in registers (one independent chain per channel) instead of
+ *  being read back from the bytes just written. */
+template <int BPP>
+void unSub(unsigned char* c, size_t row) {
+  unsigned char left[BPP] = {};
+  for (size_t i = 0; i + BPP <= row; i += BPP)
+    for (int k = 0; k < BPP; k++) {
+      left[k] = static_cast<unsigned char>(c[i + k] + left[k]);
+      c[i + k] = left[k];
+    }
+}
+
+/** Reverses the row filter of `c` (row bytes, `p` the previous unfiltered
+ *  row or zeros). False for an unknown filter type. */
+bool unfilter(int type, unsigned char* c, const unsigned char* p, size_t row, size_t bpp) {
+  switch (type) {
+    case 0:
+      return true;
+    case 1:
+      switch (bpp) {
+        case 1: unSub<1>(c, row); break;
+        case 2: unSub<2>(c, row); break;
+        case 3: unSub<3>(c, row); break;
+        case 4: unSub<4>(c, row); break;
+        default: return false;
+      }
+      return true;
+    case 2:
+      for (size_t i = 0; i < row; i++) c[i] = static_cast<unsigned char>(c[i] + p[i]);
+      return true;
+    case 3:
+      for (size_t i = 0; i < bpp; i++) c[i] = static_cast<unsigned char>(c[i] + p[i] / 2);
+      for (size_t i = bpp; i < row; i++) c[i] = static_cast<unsigned char>(c[i] + (unsigned(c[i - bpp]) + p[i]) / 2);
+      return true;
+    case 4:
+      for (size_t i = 0; i < bpp; i++) c[i] = static_cast<unsigned char>(c[i] + p[i]);
+      for (size_t i = bpp; i < row; i++) {
+        const int a = c[i - bpp], b = p[i], d = p[i - bpp];
+        const int pa = std::abs(b - d), pb = std::abs(a - d), pc = std::abs(a + b - 2 * d);
+        c[i] = static_cast<unsigned char>(c[i] + ((pa <= pb && pa <= pc) ? a : pb <= pc ? b : d));
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
+}  // namespace
+
+cv::Mat readPngFast(const std::string& path, int flags) {
+  thread_local std::vector<unsigned char> file, idat, raw;
+  if (!readFile(path, file)) return {};
+  static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (file.size() < 8 + 25 || std::memcmp(file.data(), kSig, 8) != 0) return {};
+  // Chunks: IHDR first, IDATs, IEND; ancillary chunks that change what
+  // cv::imread returns (tRNS adds alpha, eXIf rotates) or unknown critical
+  // ones make us decline.
+  uint32_t w = 0, h = 0;
+  int depth = 0, color = -1;
+  bool ended = false;
+  idat.clear();
+  for (size_t pos = 8; pos + 12 <= file.size();) {
+    const uint32_t len = be32(&file[pos]);
+    if (len > file.size() - pos - 12) return {};
+    const unsigned char* type = &file[pos + 4];
+    const unsigned char* data = type + 4;
+    if (libdeflate_crc32(0, type, len + 4) != be32(data + len)) return {};
+    const std::string t(reinterpret_cast<const char*>(type), 4);
+    if (pos == 8) {
+      if (t != "IHDR" || len != 13) return {};
+      w = be32(data);
+      h = be32(data + 4);
+      depth = data[8];
+      color = data[9];
+      if (data[10] != 0 || data[11] != 0 || data[12] != 0) return {};  // compression, filter method, interlace
+    } else if (t == "IDAT") {
+      idat.insert(idat.end(), data, data + len);
+    } else if (t == "IEND") {
+      ended = true;
+      break;
+    } else if (!(type[0] & 0x20) || t == "tRNS" || t == "eXIf") {
+      return {};
+    }
+    pos += 12 + size_t(len);
+  }
+  const int channels = color == 0 ? 1 : color == 2 ? 3 : color == 6 ? 4 : 0;
+  if (!ended || w == 0 || h == 0 || uint64_t(w) * h > (uint64_t(1) << 28) || channels == 0) return {};
+  if (depth != 8 && !(depth == 16 && channels == 1)) return {};
+  const bool ok_flags = flags == cv::IMREAD_UNCHANGED || (flags == cv::IMREAD_ANYDEPTH && channels == 1) ||
+                        (flags == cv::IMREAD_COLOR && channels == 3 && depth == 8) ||
+                        (flags == cv::IMREAD_GRAYSCALE && channels == 1 && depth == 8);
+  if (!ok_flags) return {};
+
+  const size_t bpp = size_t(channels) * size_t(depth / 8), row = bpp * w;
+  raw.resize((row + 1) * h);
+  thread_local std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> inflater(
+      libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
+  size_t got = 0;
+  if (!inflater || libdeflate_zlib_decompress(inflater.get(), idat.data(), idat.size(), raw.data(), raw.size(),
+                                              &got) != LIBDEFLATE_SUCCESS ||
+      got != raw.size())
+    return {};
+
+  cv::Mat out(static_cast<int>(h), static_cast<int>(w), CV_MAKETYPE(depth == 8 ? CV_8U : CV_16U, channels));
+  const std::vector<unsigned char> zeros(row, 0);
+  for (uint32_t y = 0; y < h; y++) {
+    unsigned char* c = &raw[y * (row + 1)];
+    const unsigned char* p = y > 0 ? &raw[(y - 1) * (row + 1) + 1] : zeros.data();
+    if (!unfilter(c[0], c + 1, p, row, bpp)) return {};
+    c++;
+    unsigned char* o = out.ptr<unsigned char>(static_cast<int>(y));
+    if (depth == 16) {  // big-endian samples
+      auto* o16 = reinterpret_cast<uint16_t*>(o);
+      for (size_t i = 0; i < w; i++) {
+        uint16_t v;
+        std::memcpy(&v, c + 2 * i, 2);
+        o16[i] = __builtin_bswap16(v);
+      }
+    } else if (channels == 1) {
+      std::memcpy(o, c, row);
+    } else {  // RGB(A) -> BGR(A)
+      for (size_t i = 0; i < row; i += bpp) {
+        o[i] = c[i + 2];
+        o[i + 1] = c[i + 1];
+        o[i + 2] = c[i];
+        if (bpp == 4) o[i + 3] = c[i + 3];
+      }
+    }
+  }
+  return out;
+}
+
+cv::Mat readImageFile(const std::string& path, int flags) {
+  cv::Mat m = readPngFast(path, flags);
+  return m.empty() ? cv::imread(path, flags) : m;
+}
+
+}  // namespace dslam

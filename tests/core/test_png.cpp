@@ -1,0 +1,146 @@
+// The fast PNG decoder (dslam/core/png.h) against cv::imread: same pixels
+// for every layout it accepts, every row filter type covered, and a decline
+// (empty Mat) for whatever it does not handle or finds damaged.
+#include <gtest/gtest.h>
+#include <libdeflate.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cstring>
+#include <filesystem>
+#include <set>
+
+#include "dslam/core/png.h"
+#include "test_support.h"
+
+using namespace dslam;
+
+namespace {
+
+/** Half noise, half smooth gradient: adaptive filtering then picks
+ *  different row filters on different rows. */
+cv::Mat testImage(int type, uint64_t seed) {
+  cv::Mat m(61, 77, type);
+  cv::RNG rng(seed);
+  rng.fill(m, cv::RNG::UNIFORM, 0, CV_MAT_DEPTH(type) == CV_16U ? 65535 : 255);
+  for (int y = 0; y < m.rows; y++)
+    for (int x = 0; x < m.cols; x++)
+      if ((y / 8) % 2 == 0)
+        for (int c = 0; c < m.channels(); c++) {
+          const int v = (x * 3 + y * (c + 1)) % 250;
+          if (CV_MAT_DEPTH(type) == CV_16U)
+            m.ptr<uint16_t>(y)[x * m.channels() + c] = static_cast<uint16_t>(v * 200);
+          else
+            m.ptr<uchar>(y)[x * m.channels() + c] = static_cast<uchar>(v);
+        }
+  return m;
+}
+
+bool identical(const cv::Mat& a, const cv::Mat& b) {
+  return !a.empty() && a.type() == b.type() && a.size() == b.size() && cv::norm(a, b, cv::NORM_INF) == 0;
+}
+
+uint32_t be32(const unsigned char* p) {
+  return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
+}
+
+/** Row filter types used in a PNG file (inflated here independently). */
+std::set<int> filterTypes(const std::string& file, size_t row_bytes, int rows) {
+  const std::string s = test::readFile(file);
+  std::vector<unsigned char> idat;
+  for (size_t pos = 8; pos + 12 <= s.size();) {
+    const auto* p = reinterpret_cast<const unsigned char*>(s.data()) + pos;
+    const uint32_t len = be32(p);
+    if (std::memcmp(p + 4, "IDAT", 4) == 0) idat.insert(idat.end(), p + 8, p + 8 + len);
+    pos += 12 + len;
+  }
+  std::vector<unsigned char> raw((row_bytes + 1) * rows);
+  libdeflate_decompressor* d = libdeflate_alloc_decompressor();
+  const auto r = libdeflate_zlib_decompress(d, idat.data(), idat.size(), raw.data(), raw.size(), nullptr);
+  libdeflate_free_decompressor(d);
+  std::set<int> types;
+  if (r == LIBDEFLATE_SUCCESS)
+    for (int y = 0; y < rows; y++) types.insert(raw[y * (row_bytes + 1)]);
+  return types;
+}
+
+}  // namespace
+
+TEST(Png, SamePixelsAsImreadForEveryLayoutAndFilter) {
+  const std::string dir = test::tempDir("png");
+  std::set<int> filters;
+  int files = 0;
+  for (int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1}) {
+    const cv::Mat img = testImage(type, 7 + type);
+    const std::vector<std::vector<int>> settings = {
+        {},                                                                       // OpenCV default: Sub filter, RLE
+        {cv::IMWRITE_PNG_COMPRESSION, 0},                                         // stored blocks
+        {cv::IMWRITE_PNG_COMPRESSION, 3},                                         // adaptive filters
+        {cv::IMWRITE_PNG_COMPRESSION, 9},                                         // adaptive, best
+        {cv::IMWRITE_PNG_COMPRESSION, 6, cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_FILTERED},
+        {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY}};
+    for (size_t k = 0; k < settings.size(); k++) {
+      const std::string f = dir + "/t" + std::to_string(type) + "_" + std::to_string(k) + ".png";
+      ASSERT_TRUE(cv::imwrite(f, img, settings[k]));
+      const cv::Mat ref = cv::imread(f, cv::IMREAD_UNCHANGED);
+      ASSERT_TRUE(identical(ref, img));
+      const cv::Mat fast = readPngFast(f, cv::IMREAD_UNCHANGED);
+      EXPECT_TRUE(identical(fast, ref)) << f;
+      if (img.channels() == 1) {
+        EXPECT_TRUE(identical(readPngFast(f, cv::IMREAD_ANYDEPTH), cv::imread(f, cv::IMREAD_ANYDEPTH))) << f;
+      }
+      if (type == CV_8UC3) {
+        EXPECT_TRUE(identical(readPngFast(f, cv::IMREAD_COLOR), cv::imread(f, cv::IMREAD_COLOR))) << f;
+      }
+      if (type == CV_8UC1) {
+        EXPECT_TRUE(identical(readPngFast(f, cv::IMREAD_GRAYSCALE), cv::imread(f, cv::IMREAD_GRAYSCALE))) << f;
+      }
+      const auto t = filterTypes(f, img.cols * img.elemSize(), img.rows);
+      filters.insert(t.begin(), t.end());
+      files++;
+    }
+  }
+  EXPECT_EQ(files, 24);
+  EXPECT_EQ(filters, (std::set<int>{0, 1, 2, 3, 4})) << "every PNG row filter exercised";
+}
+
+TEST(Png, SamePixelsAsImreadOnRealTumFrames) {
+  const std::string dir = test::shared("data/tum-frames/rgbd-pair");
+  if (!std::filesystem::exists(dir)) GTEST_SKIP() << "shared data missing: " << dir;
+  for (const char* name : {"1.png", "2.png"}) {
+    const std::string f = dir + "/" + name;
+    EXPECT_TRUE(identical(readPngFast(f, cv::IMREAD_UNCHANGED), cv::imread(f, cv::IMREAD_UNCHANGED))) << f;
+  }
+  const std::string depth = dir + "/1_depth.png";
+  const cv::Mat d = readPngFast(depth, cv::IMREAD_ANYDEPTH);
+  EXPECT_EQ(d.type(), CV_16UC1);
+  EXPECT_TRUE(identical(d, cv::imread(depth, cv::IMREAD_ANYDEPTH)));
+}
+
+TEST(Png, DeclinesWhatItDoesNotHandleAndReadImageFileFallsBack) {
+  const std::string dir = test::tempDir("png_decline");
+  const cv::Mat grey = testImage(CV_8UC1, 3), rgb = testImage(CV_8UC3, 4), rgb16 = testImage(CV_16UC3, 5);
+  ASSERT_TRUE(cv::imwrite(dir + "/g.png", grey));
+  ASSERT_TRUE(cv::imwrite(dir + "/c16.png", rgb16));
+  ASSERT_TRUE(cv::imwrite(dir + "/c.jpg", rgb));
+  // Conversions cv::imread does (grey -> BGR, 16-bit colour) are left to it.
+  EXPECT_TRUE(readPngFast(dir + "/g.png", cv::IMREAD_COLOR).empty());
+  EXPECT_TRUE(readPngFast(dir + "/c16.png", cv::IMREAD_UNCHANGED).empty());
+  EXPECT_TRUE(identical(readImageFile(dir + "/g.png", cv::IMREAD_COLOR), cv::imread(dir + "/g.png", cv::IMREAD_COLOR)));
+  EXPECT_TRUE(identical(readImageFile(dir + "/c16.png", cv::IMREAD_UNCHANGED), rgb16));
+  // Not a PNG: cv::imread decodes it.
+  EXPECT_TRUE(readPngFast(dir + "/c.jpg", cv::IMREAD_UNCHANGED).empty());
+  EXPECT_EQ(readImageFile(dir + "/c.jpg", cv::IMREAD_UNCHANGED).size(), rgb.size());
+  // Missing, truncated, damaged.
+  EXPECT_TRUE(readPngFast(dir + "/none.png", cv::IMREAD_UNCHANGED).empty());
+  EXPECT_TRUE(readImageFile(dir + "/none.png", cv::IMREAD_UNCHANGED).empty());
+  std::string bytes = test::readFile(dir + "/g.png");
+  ASSERT_TRUE(identical(readPngFast(dir + "/g.png", cv::IMREAD_UNCHANGED), grey));
+  test::writeFile(dir + "/trunc.png", bytes.substr(0, bytes.size() / 2));
+  EXPECT_TRUE(readPngFast(dir + "/trunc.png", cv::IMREAD_UNCHANGED).empty());
+  const size_t idat = bytes.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  bytes[idat + 30] = static_cast<char>(bytes[idat + 30] ^ 0x5a);  // CRC no longer matches
+  test::writeFile(dir + "/flip.png", bytes);
+  EXPECT_TRUE(readPngFast(dir + "/flip.png", cv::IMREAD_UNCHANGED).empty());
+}
