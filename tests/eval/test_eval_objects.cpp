@@ -235,6 +235,31 @@ TEST(EvalObjects, ObjectLeftAtItsOldPlaceIsStale) {
   EXPECT_EQ(gt(r2, "suitcase").match, -1);
 }
 
+TEST(EvalObjects, DuplicateOnTheMovedObjectIsNotStale) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  // A second active suitcase on the moved suitcase (inside its new box), 0.23
+  // m from the box it left: a duplicate of the present object, not an object
+  // left at the old place.
+  m.push_back(estObject(24, 33, centre(kSuitNew, 0.7) + Eigen::Vector3d(0.03, 0, 0), true));
+  // And one inside the old box only: stale.
+  m.push_back(estObject(25, 33, centre(kSuitOld, 0.7) + Eigen::Vector3d(-0.05, 0, 0), true));
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.moved_found, 1);
+  EXPECT_EQ(r.stale, 1);
+  EXPECT_EQ(r.false_objects, 1);
+  for (const auto& e : r.est) {
+    if (e.obj.id == 24) {
+      EXPECT_EQ(e.verdict, eval::Verdict::False);
+      EXPECT_NE(e.note.find("duplicate of suitcase"), std::string::npos) << e.note;
+    }
+    if (e.obj.id == 25) {
+      EXPECT_EQ(e.verdict, eval::Verdict::Stale);
+    }
+  }
+}
+
 TEST(EvalObjects, VanishedAndReplacedObjectsStillActiveAreStale) {
   const std::string d = tempDir("evalobj");
   const std::string scene = writeScene(d + "/scene");

@@ -514,7 +514,14 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
     }
     double d_old = 0;
     const Place p = nearestOld(e, d_old);
-    if (p.g != std::string::npos && d_old <= opt.match_radius) {
+    // Stale: nearer to a place an object of its class left than to any
+    // object of its class present there now. An estimate inside both (an
+    // object moved by less than its size: the places overlap) is on the
+    // object, a duplicate, not stale.
+    double d_present = std::numeric_limits<double>::infinity();
+    for (const auto& g : r.gt)
+      if (g.at_end && g.category_id == e.obj.class_id) d_present = std::min(d_present, g.box.distance(e.obj.centroid));
+    if (p.g != std::string::npos && d_old <= opt.match_radius && d_old < d_present) {
       GtObjectResult& g = r.gt[p.g];
       g.old_places[p.p].est.push_back(e.obj.id);
       e.gt_instance = g.instance_id;
