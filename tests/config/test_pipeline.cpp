@@ -126,6 +126,24 @@ TEST(Pipeline, DetectsDatasetTypeFromLayout) {
   EXPECT_EQ(config::detectDatasetType(d), "");
 }
 
+TEST(Pipeline, DetectionModeAndCarryOfDetectors) {
+  register_builtin_plugins();
+  const auto pc = config::loadPipelineText(
+      "modules:\n  - name: people\n    type: dslam::HogPeopleDetector\n    detection: async\n    carry: none\n", "/cfg");
+  ASSERT_EQ(pc.modules.size(), 1u);
+  EXPECT_EQ(pc.modules[0].detection, "async");
+  EXPECT_EQ(pc.modules[0].carry, "none");
+  EXPECT_NE(pc.toYaml().find("    detection: async\n    carry: none\n"), std::string::npos) << pc.toYaml();
+  EXPECT_EQ(config::loadPipelineText("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n", "/cfg").modules[0].carry,
+            "flow");
+  std::string e = errorOf("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n    carry: flwo\n");
+  EXPECT_NE(e.find("key 'modules[0].carry': expected flow | none, did you mean 'flow'?, got"), std::string::npos) << e;
+  e = errorOf("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n    detection: later\n");
+  EXPECT_NE(e.find("key 'modules[0].detection': expected auto | sync | async"), std::string::npos) << e;
+  e = errorOf("modules:\n  - name: f\n    type: dslam::BoxFilter\n    carry: none\n");
+  EXPECT_NE(e.find("'carry' applies to detectors only"), std::string::npos) << e;
+}
+
 TEST(Pipeline, DetectorsRunEveryNthFrame) {
   register_builtin_plugins();
   const auto pc = config::loadPipelineText(

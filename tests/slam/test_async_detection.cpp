@@ -59,10 +59,26 @@ class Probe : public dslam::KeypointClassifier {
   std::vector<Seen> seen;
 };
 
+/** Records the boxes and age each frame's classifier saw. */
+class BoxProbe : public dslam::KeypointClassifier {
+  DEFINE_MRPT_OBJECT(BoxProbe, dslam_test)
+ public:
+  std::string description() const override { return "test: records boxes"; }
+  void classify(dslam::Frame&, const dslam::Detections& d, const dslam::ClassifierContext&) override {
+    std::vector<cv::Rect2f> b;
+    for (const auto& x : d.boxes) b.push_back(x.box);
+    boxes.push_back(b);
+    ages.push_back(d.age_frames);
+  }
+  std::vector<std::vector<cv::Rect2f>> boxes;
+  std::vector<int> ages;
+};
+
 }  // namespace dslam_test
 
 IMPLEMENTS_MRPT_OBJECT(GatedDetector, dslam::Detector, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(Probe, dslam::KeypointClassifier, dslam_test)
+IMPLEMENTS_MRPT_OBJECT(BoxProbe, dslam::KeypointClassifier, dslam_test)
 
 using namespace dslam;
 
@@ -126,5 +142,27 @@ TEST(AsyncDetection, SyncModePairsEachFrameWithItsOwnDetection) {
   for (const auto& s : probe->seen) {
     EXPECT_EQ(s.det_frame, s.frame);
     EXPECT_EQ(s.age, 0);
+  }
+}
+
+TEST(AsyncDetection, CarryNoneLeavesOlderDetectionsInPlace) {
+  auto ds = scene();
+  auto det = std::make_shared<dslam_test::GatedDetector>();
+  auto probe = std::make_shared<dslam_test::BoxProbe>();
+  {
+    SlamParams sp;
+    sp.place.enabled = false;
+    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
+    sys.addDetector("gated", det, 1, System::DetectionMode::Async, /*carry_by_flow=*/false);
+    sys.addClassifier("probe", probe, "gated");
+    for (size_t i = 0; i < 10; i++) sys.track(ds->read(i));
+    det->release();
+    sys.shutdown();
+  }
+  ASSERT_EQ(probe->boxes.size(), 10u);
+  for (size_t k = 0; k < probe->boxes.size(); k++) {
+    ASSERT_EQ(probe->boxes[k].size(), 1u) << k;
+    EXPECT_EQ(probe->boxes[k][0], cv::Rect2f(100, 60, 80, 120)) << "frame " << k << ": moved although carry: none";
+    EXPECT_EQ(probe->ages[k], static_cast<int>(k));
   }
 }

@@ -50,7 +50,7 @@ std::vector<SectionInfo> registeredSections() {
 }
 
 const std::vector<std::string>& moduleKeys() {
-  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection"};
+  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection", "carry"};
   return k;
 }
 
@@ -165,14 +165,15 @@ int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const Mo
   return static_cast<int>(n);
 }
 
-/** modules[i].detection: detectors only, auto | sync | async. */
-std::string loadDetectionMode(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc) {
-  static const std::vector<std::string> modes = {"auto", "sync", "async"};
+/** A detector-only key of modules[i] with one of `values`. */
+std::string loadDetectorChoice(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc,
+                               const std::string& key, const std::vector<std::string>& values) {
   const auto t = yamlu::scalarText(v).value_or("");
-  if (std::find(modes.begin(), modes.end(), t) == modes.end())
-    L.fail(kp + ".detection", &v, "expected auto, sync or async" + yamlu::didYouMean(t, modes) + ", got " + yamlu::describe(v));
+  if (std::find(values.begin(), values.end(), t) == values.end())
+    L.fail(kp + "." + key, &v,
+           "expected " + yamlu::join(values, " | ") + yamlu::didYouMean(t, values) + ", got " + yamlu::describe(v));
   if (mc.interface_name != std::string("Detector"))
-    L.fail(kp + ".detection", &v, "'detection' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+    L.fail(kp + "." + key, &v, "'" + key + "' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
   return t;
 }
 
@@ -212,7 +213,9 @@ ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp)
     L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
   mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
   if (const node_t* ev = yamlu::findValue(e, "every")) mc.every = loadEvery(L, *ev, kp, mc);
-  if (const node_t* dm = yamlu::findValue(e, "detection")) mc.detection = loadDetectionMode(L, *dm, kp, mc);
+  if (const node_t* dm = yamlu::findValue(e, "detection"))
+    mc.detection = loadDetectorChoice(L, *dm, kp, mc, "detection", {"auto", "sync", "async"});
+  if (const node_t* cm = yamlu::findValue(e, "carry")) mc.carry = loadDetectorChoice(L, *cm, kp, mc, "carry", {"flow", "none"});
   if (const node_t* in = yamlu::findValue(e, "inputs")) {
     if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
     for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
@@ -343,7 +346,8 @@ std::string PipelineConfig::toYaml() const {
     o << "  - name: " << m.name << "\n    type: " << m.type << "\n    enabled: " << (m.enabled ? "true" : "false")
       << "\n";
     if (!m.inputs.empty()) o << "    inputs: [" << yamlu::join(m.inputs) << "]\n";
-    if (m.interface_name == std::string("Detector")) o << "    every: " << m.every << "\n    detection: " << m.detection << "\n";
+    if (m.interface_name == std::string("Detector"))
+      o << "    every: " << m.every << "\n    detection: " << m.detection << "\n    carry: " << m.carry << "\n";
     o << "    params:" << paramsBlock(m.params, 6);
   }
   o << "outputs:" << paramsBlock(outputs, 2);

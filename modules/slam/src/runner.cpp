@@ -478,7 +478,8 @@ std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const Came
     const auto dm = m->detection == "sync"    ? System::DetectionMode::Sync
                     : m->detection == "async" ? System::DetectionMode::Async
                                               : System::DetectionMode::Auto;
-    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm);
+    sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm,
+                     m->carry == "flow");
   }
   for (const auto* m : pc.modulesOf("KeypointClassifier")) {
     auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));

@@ -105,6 +105,7 @@ struct System::DetectorSlot {
   std::shared_ptr<Detector> det;
   int every = 1;
   bool async = false;
+  bool flow = true;  ///< carry older detections by optical flow (false: left in place, age grows)
   Detections last;    ///< the latest detections given to a frame (carried forward)
   cv::Mat last_gray;  ///< grey image `last` describes
   std::future<std::pair<Detections, double>> pending;
@@ -325,11 +326,13 @@ System::~System() { shutdown(); }
 
 MapPtr System::map() const { return maps_->currentMap(); }
 
-void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every, DetectionMode detection) {
+void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every, DetectionMode detection,
+                         bool carry_by_flow) {
   auto s = std::make_unique<DetectorSlot>();
   s->name = name;
   s->det = std::move(det);
   s->every = std::max(1, every);
+  s->flow = carry_by_flow;
   const bool parallel = mode_ == config::Mode::Parallel;
   s->async = parallel && (detection == DetectionMode::Async ||
                           (detection == DetectionMode::Auto && !s->det->precomputed()));
@@ -421,7 +424,13 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
         // Async, or a frame between two runs of an every-N detector: the
         // latest detections carried from the image they describe to this one.
         auto t = timer_.scope("detection_carry", fi);
-        dets[d] = carryDetections(s.last, s.last_gray, f.gray, fi - s.last.frame_index);
+        const int age = fi - s.last.frame_index;
+        if (s.flow) {
+          dets[d] = carryDetections(s.last, s.last_gray, f.gray, age);
+        } else {
+          dets[d] = s.last;
+          dets[d].age_frames = age;
+        }
       } else {
         dets[d].valid = false;  // no detection yet
       }

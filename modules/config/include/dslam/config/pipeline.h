@@ -39,6 +39,10 @@ struct ModuleConfig {
   /** detectors: "auto" | "sync" | "async" (System::DetectionMode; async =
    *  tracking never waits for the detector, parallel mode only). */
   std::string detection = "auto";
+  /** detectors: how an older detection is brought to a later frame, "flow"
+   *  (moved by optical flow, detection_carry.h) | "none" (left where it was;
+   *  its age still grows). */
+  std::string carry = "flow";
   SourceLocation where;
 };
 
@@ -88,7 +92,7 @@ std::vector<SectionInfo> registeredSections();
 
 std::vector<ParamSpec> pipelineParamSpecs();
 /** The keys of a `modules:` entry (name, type, params, inputs, enabled,
- *  every, detection). */
+ *  every, detection, carry). */
 const std::vector<std::string>& moduleKeys();
 std::vector<ParamSpec> datasetCommonParamSpecs();
 std::vector<ParamSpec> outputParamSpecs();

@@ -83,7 +83,7 @@ class System {
   /** Adds a detector; classifiers name it as their input (first one by default).
    *  Sequential mode is always Sync (deterministic). */
   void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1,
-                   DetectionMode detection = DetectionMode::Auto);
+                   DetectionMode detection = DetectionMode::Auto, bool carry_by_flow = true);
   /** Appends a classifier to the chain; `detector` = "" uses the first detector. */
   void addClassifier(const std::string& name, std::shared_ptr<KeypointClassifier> c, const std::string& detector = "");
 
