@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <memory>
 #include <mutex>
 
 #include "dslam/core/dataset.h"
@@ -89,6 +90,19 @@ std::shared_ptr<DatasetSource> scene() {
                            test::cat("path: ", test::syntheticSequence("static_office", 40, 320, 240), "\n"));
 }
 
+/** A parallel-mode System (no place recognition) whose detector "gated"
+ *  feeds the classifier "probe". */
+std::unique_ptr<System> probedSystem(const DatasetSource& ds, std::shared_ptr<Detector> det,
+                                     std::shared_ptr<KeypointClassifier> probe, System::DetectionMode mode,
+                                     bool carry_by_flow = true) {
+  SlamParams sp;
+  sp.place.enabled = false;
+  auto sys = std::make_unique<System>(*ds.camera(), sp, test::ceresBackend(), config::Mode::Parallel);
+  sys->addDetector("gated", std::move(det), 1, mode, carry_by_flow);
+  sys->addClassifier("probe", std::move(probe), "gated");
+  return sys;
+}
+
 }  // namespace
 
 TEST(AsyncDetection, TrackingDoesNotWaitForASlowDetector) {
@@ -96,16 +110,12 @@ TEST(AsyncDetection, TrackingDoesNotWaitForASlowDetector) {
   auto det = std::make_shared<dslam_test::GatedDetector>();
   auto probe = std::make_shared<dslam_test::Probe>();
   {
-    SlamParams sp;
-    sp.place.enabled = false;
-    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
-    sys.addDetector("gated", det, 1, System::DetectionMode::Async);
-    sys.addClassifier("probe", probe, "gated");
-    for (size_t i = 0; i < 20; i++) sys.track(ds->read(i));  // the detector is stuck on frame 1 meanwhile
+    auto sys = probedSystem(*ds, det, probe, System::DetectionMode::Async);
+    for (size_t i = 0; i < 20; i++) sys->track(ds->read(i));  // the detector is stuck on frame 1 meanwhile
     det->release();
     // Once released, frames go on getting the latest finished detection.
-    for (size_t i = 20; i < ds->size(); i++) sys.track(ds->read(i));
-    sys.shutdown();
+    for (size_t i = 20; i < ds->size(); i++) sys->track(ds->read(i));
+    sys->shutdown();
   }
   EXPECT_FALSE(det->timed_out) << "the System waited for the blocked detector";
   ASSERT_EQ(probe->seen.size(), ds->size());
@@ -131,12 +141,8 @@ TEST(AsyncDetection, SyncModePairsEachFrameWithItsOwnDetection) {
   det->release();
   auto probe = std::make_shared<dslam_test::Probe>();
   {
-    SlamParams sp;
-    sp.place.enabled = false;
-    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
-    sys.addDetector("gated", det, 1, System::DetectionMode::Sync);
-    sys.addClassifier("probe", probe, "gated");
-    for (size_t i = 0; i < 10; i++) sys.track(ds->read(i));
+    auto sys = probedSystem(*ds, det, probe, System::DetectionMode::Sync);
+    for (size_t i = 0; i < 10; i++) sys->track(ds->read(i));
   }
   ASSERT_EQ(probe->seen.size(), 10u);
   for (const auto& s : probe->seen) {
@@ -150,14 +156,10 @@ TEST(AsyncDetection, CarryNoneLeavesOlderDetectionsInPlace) {
   auto det = std::make_shared<dslam_test::GatedDetector>();
   auto probe = std::make_shared<dslam_test::BoxProbe>();
   {
-    SlamParams sp;
-    sp.place.enabled = false;
-    System sys(*ds->camera(), sp, test::ceresBackend(), config::Mode::Parallel);
-    sys.addDetector("gated", det, 1, System::DetectionMode::Async, /*carry_by_flow=*/false);
-    sys.addClassifier("probe", probe, "gated");
-    for (size_t i = 0; i < 10; i++) sys.track(ds->read(i));
+    auto sys = probedSystem(*ds, det, probe, System::DetectionMode::Async, /*carry_by_flow=*/false);
+    for (size_t i = 0; i < 10; i++) sys->track(ds->read(i));
     det->release();
-    sys.shutdown();
+    sys->shutdown();
   }
   ASSERT_EQ(probe->boxes.size(), 10u);
   for (size_t k = 0; k < probe->boxes.size(); k++) {
