@@ -153,6 +153,13 @@ DatasetConfig loadDataset(const Loader& L, const node_t& d) {
   return dc;
 }
 
+/** Fails unless modules[i] (`mc`) is a detector: `key` applies to detectors only. */
+void requireDetector(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc,
+                     const std::string& key) {
+  if (mc.interface_name != std::string("Detector"))
+    L.fail(kp + "." + key, &v, "'" + key + "' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+}
+
 /** modules[i].every: detectors only, an integer >= 1. */
 int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const ModuleConfig& mc) {
   const auto t = yamlu::scalarText(ev).value_or("");
@@ -160,8 +167,7 @@ int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const Mo
   const long n = std::strtol(t.c_str(), &end, 10);
   if (t.empty() || *end != '\0' || n < 1 || n > 1000000)
     L.fail(kp + ".every", &ev, "expected an integer >= 1 (run the detector on every N-th frame), got " + yamlu::describe(ev));
-  if (mc.interface_name != std::string("Detector"))
-    L.fail(kp + ".every", &ev, "'every' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+  requireDetector(L, ev, kp, mc, "every");
   return static_cast<int>(n);
 }
 
@@ -172,8 +178,7 @@ std::string loadDetectorChoice(const Loader& L, const node_t& v, const std::stri
   if (std::find(values.begin(), values.end(), t) == values.end())
     L.fail(kp + "." + key, &v,
            "expected " + yamlu::join(values, " | ") + yamlu::didYouMean(t, values) + ", got " + yamlu::describe(v));
-  if (mc.interface_name != std::string("Detector"))
-    L.fail(kp + "." + key, &v, "'" + key + "' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
+  requireDetector(L, v, kp, mc, key);
   return t;
 }
 

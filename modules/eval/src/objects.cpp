@@ -514,14 +514,19 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
     }
     double d_old = 0;
     const Place p = nearestOld(e, d_old);
+    // Nearest present object of the class (stale test, and the note).
+    double best = std::numeric_limits<double>::infinity();
+    const GtObjectResult* near = nullptr;
+    for (const auto& g : r.gt)
+      if (g.at_end && g.category_id == e.obj.class_id && g.box.distance(e.obj.centroid) < best) {
+        best = g.box.distance(e.obj.centroid);
+        near = &g;
+      }
     // Stale: nearer to a place an object of its class left than to any
     // object of its class present there now. An estimate inside both (an
     // object moved by less than its size: the places overlap) is on the
     // object, a duplicate, not stale.
-    double d_present = std::numeric_limits<double>::infinity();
-    for (const auto& g : r.gt)
-      if (g.at_end && g.category_id == e.obj.class_id) d_present = std::min(d_present, g.box.distance(e.obj.centroid));
-    if (p.g != std::string::npos && d_old <= opt.match_radius && d_old < d_present) {
+    if (p.g != std::string::npos && d_old <= opt.match_radius && d_old < best) {
       GtObjectResult& g = r.gt[p.g];
       g.old_places[p.p].est.push_back(e.obj.id);
       e.gt_instance = g.instance_id;
@@ -531,14 +536,6 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       continue;
     }
     e.verdict = e.obj.active ? Verdict::False : Verdict::Inactive;
-    // Nearest present object of the class, for the note.
-    double best = std::numeric_limits<double>::infinity();
-    const GtObjectResult* near = nullptr;
-    for (const auto& g : r.gt)
-      if (g.at_end && g.category_id == e.obj.class_id && g.box.distance(e.obj.centroid) < best) {
-        best = g.box.distance(e.obj.centroid);
-        near = &g;
-      }
     if (near && best <= opt.match_radius) {
       e.gt_instance = near->instance_id;
       e.box_dist = best;

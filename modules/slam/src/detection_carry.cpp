@@ -36,10 +36,6 @@ void pasteShifted(const cv::Mat& src, cv::Mat& dst, const cv::Rect& roi, T value
   }
 }
 
-}  // namespace
-
-namespace {
-
 /** One region to move: `mask` (CV_8U, roi-sized, non-zero = inside) or empty
  *  for the whole roi. */
 struct Region {
