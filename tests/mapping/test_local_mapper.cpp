@@ -1,15 +1,19 @@
 // LocalMapper steps on exact worlds (sequential processAll(), no local BA):
 // triangulation of new points between neighbouring keyframes, culling of
 // recent points (ORB-SLAM MapPointCulling), culling of redundant keyframes
-// (KeyFrameCulling), and nested pauses of the mapper thread.
+// (KeyFrameCulling), nested pauses of the mapper thread, and what local BA
+// and fusion do with the points a persistence filter made inactive.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <random>
 #include <set>
 #include <thread>
 
 #include "dslam/mapping/local_mapper.h"
+#include "plugin_util.h"
 #include "synth_map.h"
 
 using namespace dslam;
@@ -210,6 +214,112 @@ TEST(LocalMapper, CullsKeyFramesWhoseClosePointsOthersSee) {
   }
   for (const auto& g : gs) EXPECT_FALSE(g->bad);
   EXPECT_EQ(m2.numKeyFrames(), 5u);
+}
+
+namespace {
+
+struct InactiveRun {
+  std::vector<Eigen::Vector3d> inactive_before, inactive_after, active_err_after;
+  std::vector<int> inactive_obs_before, inactive_obs_after, unassociated_obs_gain;
+  LocalBAStats ba;
+};
+
+/** Three keyframes over the synthetic world with local BA: kf0 (origin) maps
+ *  150 points, kf1 tracks them; then 15 of the points all three keyframes
+ *  see become inactive (persistence filter) and are moved 2 mm off their
+ *  true place, 15 active ones 1 cm (random directions); kf2 tracks the
+ *  active points only (tracking never matches inactive ones) and leaves 10
+ *  active points unassociated (fusion's job). */
+InactiveRun runWithInactivePoints(bool fixed) {
+  test::SynthWorld w;
+  Map m(0);
+  std::vector<int> s0, s1, s2;
+  auto kf0 = origin(w, m, s0, 150);
+  auto kf1 = w.keyframe(m, test::poseAt({0.3, 0, 0}, -3), 10, &s1);
+  track(kf1.get(), s1, kf0.get(), s0);
+  LocalMapperParams p;
+  p.ba_inactive_points_fixed = fixed;
+  LocalMapper mapper(p, test::ceresBackend());
+  mapper.insertKeyFrame(kf1);
+  mapper.processAll();
+
+  auto kf2 = w.keyframe(m, test::poseAt({0.15, 0.05, 0}, 2), 20, &s2);
+  std::vector<int> shared;  // world points of kf0's map points seen by kf1 and kf2
+  for (int i : s1)
+    if (i < 150 && test::keypointOf(s0, i) >= 0 && test::keypointOf(s2, i) >= 0) shared.push_back(i);
+  EXPECT_GE(shared.size(), 60u);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  auto off = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized() * 0.01; };
+  InactiveRun r;
+  std::vector<MapPointPtr> inactive, perturbed, unassociated;
+  std::vector<int> perturbed_world;
+  for (size_t k = 0; k < shared.size(); k++) {
+    const MapPointPtr& mp = kf0->points[test::keypointOf(s0, shared[k])];
+    if (k < 15) {
+      mp->active = false;
+      mp->pos += 0.2 * off();
+      inactive.push_back(mp);
+    } else if (k < 30) {
+      mp->pos += off();
+      perturbed.push_back(mp);
+      perturbed_world.push_back(shared[k]);
+    } else if (k < 40) {
+      unassociated.push_back(mp);
+    }
+  }
+  for (size_t k = 0; k < s2.size(); k++) {
+    const int j = test::keypointOf(s0, s2[k]);
+    if (j < 0 || !kf0->points[j]) continue;
+    const MapPointPtr& mp = kf0->points[j];
+    const bool skip = !mp->active || std::find(unassociated.begin(), unassociated.end(), mp) != unassociated.end();
+    if (!skip) kf2->points[k] = mp;
+  }
+  for (const auto& mp : inactive) {
+    r.inactive_before.push_back(mp->pos);
+    r.inactive_obs_before.push_back(mp->numObservations());
+  }
+  std::vector<int> unassoc_before;
+  for (const auto& mp : unassociated) unassoc_before.push_back(mp->numObservations());
+  mapper.insertKeyFrame(kf2);
+  mapper.processAll();
+  r.ba = mapper.lastLocalBA();
+  for (const auto& mp : inactive) {
+    r.inactive_after.push_back(mp->pos);
+    r.inactive_obs_after.push_back(mp->numObservations());
+  }
+  for (size_t k = 0; k < perturbed.size(); k++) r.active_err_after.push_back(perturbed[k]->pos - w.X[perturbed_world[k]]);
+  for (size_t k = 0; k < unassociated.size(); k++)
+    r.unassociated_obs_gain.push_back(unassociated[k]->numObservations() - unassoc_before[k]);
+  return r;
+}
+
+}  // namespace
+
+TEST(LocalMapper, InactivePointsStayFixedInLocalBAAndGainNoObservations) {
+  const InactiveRun with_fixed = runWithInactivePoints(true), with_skip = runWithInactivePoints(false);
+  // 'fixed' keeps them in the problem as constants, 'skip' leaves them out.
+  EXPECT_EQ(with_fixed.ba.points - with_skip.ba.points, 15);
+  for (const bool fixed : {true, false}) {
+    SCOPED_TRACE(fixed ? "ba_inactive_points: fixed" : "ba_inactive_points: skip");
+    const InactiveRun& r = fixed ? with_fixed : with_skip;
+    ASSERT_EQ(r.inactive_before.size(), 15u);
+    EXPECT_GE(r.ba.optimised, 1);
+    EXPECT_GE(r.ba.iterations, 1);
+    // Active points moved 1 cm off their place are brought back by the BA...
+    ASSERT_EQ(r.active_err_after.size(), 15u);
+    for (const auto& e : r.active_err_after) EXPECT_LT(e.norm(), 0.0015);
+    // ... the inactive ones (2 mm off) are not touched (bit for bit),
+    // and neither fusion nor the new keyframe gives them observations.
+    for (size_t k = 0; k < r.inactive_before.size(); k++) {
+      EXPECT_EQ(r.inactive_after[k], r.inactive_before[k]) << "inactive point " << k;
+      EXPECT_EQ(r.inactive_obs_after[k], r.inactive_obs_before[k]) << "inactive point " << k;
+    }
+    // Control: active points the new keyframe sees but tracking did not
+    // associate are fused into it (two stereo observations each).
+    ASSERT_EQ(r.unassociated_obs_gain.size(), 10u);
+    for (int g : r.unassociated_obs_gain) EXPECT_EQ(g, 2);
+  }
 }
 
 TEST(LocalMapper, PausesNestAndQueuedKeyFramesWait) {
