@@ -387,3 +387,40 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
   auto off = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 0}", atlas);
   EXPECT_FALSE(off->wantsKeyFrame(s.map, f, matched));
 }
+
+TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
+  // The chair is gone. Place: its points not found are no evidence
+  // (min_found_fraction 0), and each keyframe sees 13-18 keypoints of the
+  // wall through the central half of its place, fewer than
+  // min_place_keypoints 20. Points: the see-through test is off
+  // (min_place_keypoints 100000) and with match_radius 1 only a few of its points
+  // have a keypoint with depth at their projection (fewer than the 8 needed to
+  // judge). One keyframe on its own is no evidence; summed over
+  // evidence_keyframes 3, two keyframes are.
+  struct Seen {
+    int64_t misses = 0;
+    bool active = true;
+  };
+  auto run = [](const std::string& evidence, int evidence_keyframes, int keyframes) {
+    auto atlas = std::make_shared<Atlas>();
+    auto filter = makeFilter<ObjectPersistenceFilter>(
+        "{dormant_after_s: 0, " + evidence + ", evidence_keyframes: " + std::to_string(evidence_keyframes) + "}",
+        atlas);
+    Scene s(filter->currentMap());
+    filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+    const MapObject& o = onlyObject(*s.map);
+    double t = 3.0;
+    for (int k = 0; k < keyframes; k++, t += 0.5) filter->onKeyFrame(s.keyframe(t, poseAt({0.01 * k, 0, 0}), false));
+    return Seen{filter->stats().misses, o.active};
+  };
+  for (const std::string evidence : {"min_found_fraction: 0, min_place_keypoints: 20",
+                                     "min_place_keypoints: 100000, match_radius: 1"}) {
+    SCOPED_TRACE(evidence);
+    EXPECT_EQ(run(evidence, 1, 6).misses, 0);  // each keyframe on its own: never enough
+    const Seen summed = run(evidence, 3, 6);
+    EXPECT_GE(summed.misses, 2);  // every second (or third) keyframe
+    EXPECT_LE(summed.misses, 3);
+    EXPECT_FALSE(summed.active);  // 0.5 -> 0.18: below 0.2
+    EXPECT_EQ(run(evidence, 3, 1).misses, 0);  // one keyframe is still not enough
+  }
+}

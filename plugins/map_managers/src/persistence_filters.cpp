@@ -151,6 +151,10 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "without a detection",
                0, 1),
       P_double("match_radius", 8.0, "point evidence: pixels around a point's projection searched for it", 1, 1000),
+      P_int("evidence_keyframes", 3,
+            "point and place evidence too weak in one keyframe (a small object: few points or keypoints on its "
+            "place) adds up over this many keyframes that show it (ours; 1 = each keyframe on its own)",
+            1, 1000),
       P_int("max_descriptor_distance", 50, "point evidence: a keypoint this close (ORB) at the projection is the point",
             0, 256),
       P_int("new_object_keypoints", 10,
@@ -190,6 +194,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   min_found_fraction_ = p.getDouble("min_found_fraction");
   present_fraction_ = p.getDouble("present_fraction");
   match_radius_px_ = p.getDouble("match_radius");
+  evidence_keyframes_ = static_cast<int>(p.getInt("evidence_keyframes"));
   max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
   new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
   new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
@@ -221,9 +226,16 @@ bool ObjectPersistenceFilter::wantsKeyFrame(const std::shared_ptr<Map>& map, con
   return FilteringMapManager::wantsKeyFrame(map, f, matched);
 }
 
-ObjectPersistenceFilter::PointEvidence ObjectPersistenceFilter::pointEvidence(
+ObjectPersistenceFilter::Evidence& ObjectPersistenceFilter::Evidence::operator+=(const Evidence& e) {
+  expected += e.expected, found += e.found;
+  with_depth += e.with_depth, through += e.through, other += e.other;
+  keyframes += e.keyframes;
+  return *this;
+}
+
+ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
     const KeyFrame& kf, const MapObject& o, const std::unordered_set<const MapPoint*>& kf_points) const {
-  PointEvidence ev;
+  Evidence ev;
   for (const auto& [id, p] : o.points) {
     if (!p || p->bad) continue;
     cv::Point2f uv;
@@ -243,16 +255,16 @@ ObjectPersistenceFilter::PointEvidence ObjectPersistenceFilter::pointEvidence(
   return ev;
 }
 
-bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const {
-  if (o.points.empty()) return false;
+bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const {
+  if (o.points.empty()) return true;
   cv::Point2f c;
   double z = 0;
-  if (!projectInto(kf, o.centroid, c, z) || z > max_range_) return false;
+  if (!projectInto(kf, o.centroid, c, z) || z > max_range_) return true;
   // Image rectangle of its 3D box (every corner in front of the camera).
   float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
   for (int k = 0; k < 8; k++) {
     const Eigen::Vector3d Xc = kf.T_cw() * o.corner(k);
-    if (Xc.z() < 0.05) return false;
+    if (Xc.z() < 0.05) return true;
     const float u = static_cast<float>(kf.cam.fx * Xc.x() / Xc.z() + kf.cam.cx);
     const float v = static_cast<float>(kf.cam.fy * Xc.y() / Xc.z() + kf.cam.cy);
     x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
@@ -260,12 +272,13 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
   // Its whole place in view: at the image border a present object is easily
   // missed (few of its keypoints, cut box).
   const ImageBounds& b = kf.cam.bounds;
-  if (x0 < b.min_x || y0 < b.min_y || x1 > b.max_x || y1 > b.max_y || x1 <= x0 || y1 <= y0) return false;
+  if (x0 < b.min_x || y0 < b.min_y || x1 > b.max_x || y1 > b.max_y || x1 <= x0 || y1 <= y0) return true;
   // The central half of its place: the camera must see *through* it (depth
   // beyond the centroid by occlusion_margin), not onto something there.
   const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);
   const float cy0 = y0 + 0.25f * (y1 - y0), cy1 = y1 - 0.25f * (y1 - y0);
-  int support = 0, with_depth = 0, through = 0, other = 0;
+  int support = 0;
+  Evidence here;
   for (size_t i = 0; i < kf.size(); i++) {
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
@@ -273,17 +286,23 @@ bool ObjectPersistenceFilter::placeInViewAndFree(const KeyFrame& kf, const MapOb
     if ((mp && mp->map_object == o.id) || (!kf.meta.empty() && kf.meta[i].class_id == o.class_id)) support++;
     if (pt.x < cx0 || pt.x > cx1 || pt.y < cy0 || pt.y > cy1) continue;
     if (i < kf.depth.size() && kf.depth[i] > 0) {
-      with_depth++;
-      if (kf.depth[i] > z + occlusion_margin_) through++;
+      here.with_depth++;
+      if (kf.depth[i] > z + occlusion_margin_) here.through++;
       // ... or onto another object standing where it stood.
       const KeypointMeta* km = kf.meta.empty() ? nullptr : &kf.meta[i];
       if (km && km->label != KpLabel::Dynamic && isObjectClass(km->class_id, ltda_) && km->class_id != o.class_id &&
           std::abs(kf.depth[i] - z) <= occlusion_margin_)
-        other++;
+        here.other++;
     }
   }
-  return support < min_support_points_ && with_depth >= min_place_keypoints_ &&
-         (through >= min_free_fraction_ * with_depth || other >= min_free_fraction_ * with_depth);
+  if (support >= min_support_points_) return false;
+  ev += here;
+  return true;
+}
+
+bool ObjectPersistenceFilter::placeFree(const Evidence& ev) const {
+  return ev.with_depth >= min_place_keypoints_ &&
+         (ev.through >= min_free_fraction_ * ev.with_depth || ev.other >= min_free_fraction_ * ev.with_depth);
 }
 
 bool ObjectPersistenceFilter::longTerm(const KeyFrame& kf, int64_t last_kf, double last_t) const {
@@ -313,6 +332,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (it == objects.end()) continue;
     MapObject& o = *it->second;
     seen.insert(o.id);
+    pending_.erase(o.id);
     if (mt.created) {
       o.belief = initial_belief_;
       stats_.created++;
@@ -350,12 +370,24 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (seen.count(id)) continue;
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
-    const PointEvidence ev = pointEvidence(*kf, o, kf_points);
-    // A small object has few points to expect: half of them (at least 3) suffice.
+    Evidence now = pointEvidence(*kf, o, kf_points);
+    const bool place_taken = !placeEvidence(*kf, o, now);
+    Evidence& ev = pending_[id];
+    if (place_taken) {  // something of its class on its place: what was gathered on it is void
+      ev = Evidence{};
+      now.with_depth = now.through = now.other = 0;
+    }
+    if (now.expected > 0 || now.with_depth > 0) {
+      now.keyframes = 1;
+      ev += now;
+    }
+    // A small object has few points to expect: half of them (at least 3) suffice;
+    // fewer than 3 points are never judged (summed keyframes see the same ones).
     const int need = std::min(min_expected_points_, std::max(3, static_cast<int>(o.numPoints() / 2)));
-    const bool judged = ev.expected >= need;
+    const bool judged = o.numPoints() >= 3 && ev.expected >= need;
     if (judged && ev.found >= present_fraction_ * ev.expected) {
       // Its points are there although no candidate was made of them (detector miss, labels): a sighting.
+      pending_.erase(id);
       const bool was_dormant = o.dormant;
       o.dormant = false;
       o.belief = objectBeliefSighted(o.belief, 0.0, static_cast<int>(o.numPoints()), belief_);
@@ -367,8 +399,9 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       traceObject(*kf, o, was_dormant ? "woken (points found)" : "sighted (points found)");
       continue;
     }
-    const bool free = placeInViewAndFree(*kf, o);
+    const bool free = placeFree(ev);
     if (free || (judged && ev.found < min_found_fraction_ * ev.expected)) {
+      pending_.erase(id);
       o.belief = objectBeliefMissed(o.belief, belief_);
       stats_.misses++;
       traceObject(*kf, o,
@@ -381,16 +414,24 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         }
         continue;
       }
+    } else if (ev.keyframes >= evidence_keyframes_) {
+      pending_.erase(id);  // not enough to decide on in the window: start again
     }
     if (dormant_after_s_ > 0 && o.active && kf->timestamp - o.last_seen_t > dormant_after_s_) setDormant(o);
   }
+  // Nothing gathered, or objects merged into others or of another map (kept dormant until seen again).
+  for (auto it = pending_.begin(); it != pending_.end();)
+    it = objects.count(it->first) && it->second.keyframes > 0 ? std::next(it) : pending_.erase(it);
 }
 
 void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {
   FilteringMapManager::onTrackingLost(m);
   if (!m || !dormant_on_lost_) return;
   std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
-  for (auto& [id, o] : m->objects()) setDormant(*o);
+  for (auto& [id, o] : m->objects()) {
+    setDormant(*o);
+    pending_.erase(id);  // evidence from before the loss is not added to evidence after it
+  }
 }
 
 // ---------------------------------------------------------------------------

@@ -74,16 +74,26 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   const LtdaParams& ltdaParams() const { return ltda_; }
 
  private:
-  /** Negative evidence for `o` from keyframe `kf` (not seen in it). */
-  bool placeInViewAndFree(const KeyFrame& kf, const MapObject& o) const;
-  /** Its points a keyframe should see (in the image, in range, facing it,
-   *  not occluded by nearer keypoints) and how many of them it does (tracked,
-   *  or a keypoint at the projection with a matching descriptor and depth). */
-  struct PointEvidence {
+  /** What keyframes that did not associate `o` show of it: its points they
+   *  should see (in the image, in range, facing them, not occluded by nearer
+   *  keypoints) and how many of them they do (tracked, or a keypoint at the
+   *  projection with a matching descriptor and depth); and, when its whole
+   *  place is in view, the keypoints with depth in the central half of its
+   *  place, those seeing through it and those on another object standing
+   *  there. Summed over up to `evidence_keyframes` keyframes (weak views of a
+   *  small object add up) until it makes a decision. */
+  struct Evidence {
     int expected = 0, found = 0;
+    int with_depth = 0, through = 0, other = 0;
+    int keyframes = 0;
+    Evidence& operator+=(const Evidence& e);
   };
-  PointEvidence pointEvidence(const KeyFrame& kf, const MapObject& o,
-                              const std::unordered_set<const MapPoint*>& kf_points) const;
+  Evidence pointEvidence(const KeyFrame& kf, const MapObject& o,
+                         const std::unordered_set<const MapPoint*>& kf_points) const;
+  /** Adds the place evidence of `kf` to `ev`; false if something of its
+   *  class is on its place (it is there: no negative evidence). */
+  bool placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const;
+  bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
 
   LtdaParams ltda_;
@@ -101,6 +111,8 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int new_object_keypoints_ = 10;
   double new_object_gap_s_ = 1.0, last_request_t_ = -1e300;
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
+  int evidence_keyframes_ = 3;
+  std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
   PersistenceStats stats_;
 };
 
