@@ -53,8 +53,8 @@ def main():
     variants = a.variants.split(",")
 
     print("Semantic object map at the end (`dslam eval objects RUN SCENE`):\n")
-    print("| variant | scene | static objects found | stale | moved found (max centroid-to-box error) "
-          "| removed / replaced inactive | added found | false |")
+    print("| variant | scene | static objects found | stale (at places seen since) | moved found (max centroid-to-box "
+          "error) | removed / replaced inactive | added found | false |")
     print("|---|---|---|---|---|---|---|---|")
     tot = {}
     for v in variants:
@@ -72,7 +72,10 @@ def main():
             moved = dash(m["moved_found"], m["moved_total"])
             if m["moved_total"] and m["moved_found"]:
                 moved += " (%.3f m)" % m["moved_error_max"]
-            print(f"| {v} | {sc} | {m['static_found']}/{m['static_total']} | {m['stale']} | {moved} "
+            stale = str(m["stale"])
+            if m.get("stale_place_seen") is not None:
+                stale += f" ({m['stale_place_seen']})"
+            print(f"| {v} | {sc} | {m['static_found']}/{m['static_total']} | {stale} | {moved} "
                   f"| {dash(m['gone_inactive'], m['gone_total'])} | {dash(m['added_found'], m['added_total'])} "
                   f"| {m['false_objects']} |")
         tot[v] = (sf, st)

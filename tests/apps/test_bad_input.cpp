@@ -335,6 +335,15 @@ std::vector<Case> cases() {
                  return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"))) + " " + q(d + "/scene");
                },
                1, {"$DIR/scene", "no groundtruth.txt"}});
+  c.push_back({"`dslam eval objects` scene", "depth.txt line without a file name",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/scene");
+                 for (const char* f : {"objects.json", "groundtruth.txt"})
+                   fs::copy_file(tinyScene() + "/" + f, d + "/scene/" + f);
+                 writeFile(d + "/scene/depth.txt", "# timestamp filename\n1000.0\n");
+                 return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"))) + " " + q(d + "/scene");
+               },
+               1, {"$DIR/scene/depth.txt:2", "expected 'timestamp path'"}});
   c.push_back({"`dslam eval objects` run and scene", "trajectory of another time span",
                [](const std::string& d) {
                  const std::string t = "10.0 0 0 0 0 0 0 1\n10.1 1 0 0 0 0 0 1\n10.2 0 1 0 0 0 0 1\n";

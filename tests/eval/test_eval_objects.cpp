@@ -9,6 +9,8 @@
 
 #include <Eigen/Geometry>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "dslam/core/coco.h"
 #include "dslam/eval/objects.h"
 #include "dslam/trajectory/io.h"
@@ -390,6 +392,119 @@ TEST(EvalObjects, BadInputs) {
   eval::ObjectEvalOptions o;
   o.align_until = stamp(2);
   has(dataError([&] { eval::evaluateObjects(sc, est, groundTruth(), o); }), "only 2 trajectory poses before");
+}
+
+namespace {
+
+/** A scene whose place-visibility is known: a chair at (0, 0, 0) moved to
+ *  (2, 0, 0) during frames 3-4, a camera 3 m in front of its old place
+ *  looking at it (optical axis along world +x) in all 10 frames, and depth
+ *  maps of a constant `depth_m` (10: a far wall, the place is seen through;
+ *  1: something right in front of the camera hides it). */
+std::string visibilityScene(const std::string& dir, double depth_m, bool with_depth = true) {
+  std::filesystem::create_directories(dir + "/depth");
+  constexpr int n = 10;
+  json objs = json::array();
+  json pr = json::array({json::array({0, n - 1})}), tr = json::array(), vis = json::array();
+  tr.push_back(trackEntry(0, yawPose(0, 0, 0, 0)));
+  tr.push_back(trackEntry(4, yawPose(2, 0, 0, 0)));
+  for (int f = 0; f < n; f++) vis.push_back(5000);
+  objs.push_back({{"instance_id", 1}, {"name", "chair"}, {"kind", "object"}, {"type", "box"}, {"class", "chair"},
+                  {"category_id", 62}, {"labelled", true}, {"size", {0.5, 0.5, 1.0}}, {"moving", false},
+                  {"present", pr}, {"track", tr}, {"visible_pixels", vis}});
+  json events = json::array();
+  events.push_back({{"type", "moved"}, {"object", "chair"}, {"instance_id", 1}, {"frames", {3, 4}},
+                    {"timestamps", {stamp(3), stamp(4)}}, {"to", {2, 0, 0}}});
+  json root = {{"scenario", "visibility"}, {"frames", n}, {"rate", 10}, {"start_time", kT0},
+               {"objects", objs}, {"people", json::array()}, {"events", events}};
+  if (with_depth) {
+    root["intrinsics"] = {{"fx", 500.0}, {"fy", 500.0}, {"cx", 320.0}, {"cy", 240.0}};
+    root["width"] = 640;
+    root["height"] = 480;
+    root["depth_factor"] = 5000;
+  }
+  writeFile(dir + "/objects.json", root.dump(1));
+  // Optical frame: x_c = -y_w, y_c = -z_w, z_c = +x_w.
+  Eigen::Matrix3d R_wc;
+  R_wc << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Trajectory t;
+  std::string list = "# timestamp filename\n";
+  for (int f = 0; f < n; f++) {
+    t.push_back(stamp(f), SE3(Eigen::Quaterniond(R_wc), Eigen::Vector3d(-3, 0, 0.5)));
+    const std::string name = "depth/" + std::to_string(f) + ".png";
+    cv::imwrite(dir + "/" + name, cv::Mat(480, 640, CV_16UC1, cv::Scalar(depth_m * 5000)));
+    list += std::to_string(stamp(f)) + " " + name + "\n";
+  }
+  writeFile(dir + "/depth.txt", list);
+  traj::writeTum(dir + "/groundtruth.txt", t, "visibility");
+  return dir;
+}
+
+/** A map that kept the chair's old object active (stale) and found the new one. */
+eval::EstObjects staleChair() {
+  eval::EstObjects est;
+  est.file = "crafted";
+  for (const auto& [id, x] : std::vector<std::pair<int, double>>{{1, 0.0}, {2, 2.0}}) {
+    eval::EstObject o;
+    o.id = id;
+    o.class_id = 62;
+    o.centroid = Eigen::Vector3d(x, 0, 0.5);
+    o.box_min = o.centroid - Eigen::Vector3d::Constant(0.2);
+    o.box_max = o.centroid + Eigen::Vector3d::Constant(0.2);
+    o.points = 40;
+    est.objects.push_back(o);
+  }
+  return est;
+}
+
+}  // namespace
+
+TEST(EvalObjects, StaleObjectsAtPlacesSeenSinceTheObjectLeft) {
+  const std::string d = tempDir("evalobj");
+  eval::ObjectEvalOptions o;
+  o.align = eval::Align::None;
+  // Seen through after the move: the stale object stands at a place the camera saw.
+  auto r = eval::evaluateObjects(eval::readScene(visibilityScene(d + "/far", 10.0)), staleChair(), {}, o);
+  ASSERT_TRUE(r.place_visibility);
+  EXPECT_EQ(r.stale, 1);
+  EXPECT_EQ(r.stale_seen, 1);
+  const auto& place = gt(r, "chair").old_places.at(0);
+  EXPECT_EQ(place.left_at, 4);
+  EXPECT_DOUBLE_EQ(place.seen_after, 1.0);  // all 125 samples in the image, nothing in front
+  // Hidden behind something 1 m from the camera: stale, but never seen since.
+  r = eval::evaluateObjects(eval::readScene(visibilityScene(d + "/near", 1.0)), staleChair(), {}, o);
+  EXPECT_EQ(r.stale, 1);
+  EXPECT_EQ(r.stale_seen, 0);
+  EXPECT_DOUBLE_EQ(gt(r, "chair").old_places.at(0).seen_after, 0.0);
+  EXPECT_NE(eval::toText(r).find("1 (target 0); 0 at places seen since the object left, 1 at places never seen since"),
+            std::string::npos)
+      << eval::toText(r);
+  EXPECT_EQ(json::parse(eval::toJson(r))["stale_place_seen"].get<int>(), 0);
+  // Off, or a scene without depth: unknown (null in the JSON).
+  o.place_seen_fraction = 0;
+  r = eval::evaluateObjects(eval::readScene(d + "/far"), staleChair(), {}, o);
+  EXPECT_FALSE(r.place_visibility);
+  EXPECT_EQ(gt(r, "chair").old_places.at(0).seen_after, -1);
+  o.place_seen_fraction = 0.5;
+  r = eval::evaluateObjects(eval::readScene(visibilityScene(d + "/nodepth", 10.0, false)), staleChair(), {}, o);
+  EXPECT_FALSE(r.place_visibility);
+  EXPECT_TRUE(json::parse(eval::toJson(r))["stale_place_seen"].is_null());
+  EXPECT_EQ(r.stale, 1);
+
+  // Bad depth lists and maps name the file.
+  using dslam::test::dataError;
+  auto has = [](const std::string& msg, const std::string& part) {
+    EXPECT_NE(msg.find(part), std::string::npos) << "'" << part << "' not in: " << msg;
+  };
+  const std::string bad = visibilityScene(d + "/bad", 10.0);
+  writeFile(bad + "/depth.txt", "# timestamp filename\n100.0\n");
+  has(dataError([&] { eval::readScene(bad); }), "depth.txt:2: expected 'timestamp path'");
+  writeFile(bad + "/depth.txt", "100.0 depth/0.png\n");
+  has(dataError([&] { eval::readScene(bad); }), "1 depth maps for the 10 frames");
+  visibilityScene(bad, 10.0);
+  cv::imwrite(bad + "/depth/7.png", cv::Mat(480, 640, CV_8UC1, cv::Scalar(9)));
+  has(dataError([&] { eval::evaluateObjects(eval::readScene(bad), staleChair(), {}, o); }),
+      "depth/7.png: not a 16-bit depth map");
 }
 
 TEST(EvalObjects, SceneFolderGivenAsRunAndRunAsScene) {

@@ -1,6 +1,7 @@
 #include "dslam/eval/objects.h"
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
 #include "dslam/core/json_layout.h"
+#include "dslam/core/png.h"
 #include "dslam/trajectory/io.h"
 
 namespace fs = std::filesystem;
@@ -179,6 +181,46 @@ const SceneObject* Scene::find(const std::string& n) const {
   return nullptr;
 }
 
+namespace {
+
+/** Intrinsics, depth factor and depth.txt of a scene (SceneDepth); left
+ *  empty when any is missing (older scenes). A depth.txt whose lines are not
+ *  "timestamp path", or that lists another number of frames, is an error. */
+void readSceneDepth(const std::string& dir, const json& root, const At& top, Scene& s) {
+  const std::string list = (fs::path(dir) / "depth.txt").string();
+  if (!fs::exists(list) || !root.contains("intrinsics") || !root.contains("depth_factor") ||
+      !root.contains("width") || !root.contains("height"))
+    return;
+  const json& k = root["intrinsics"];
+  if (!k.is_object()) top.fail("'intrinsics' must be {fx, fy, cx, cy}");
+  SceneDepth d;
+  d.fx = top.number(top.need(k, "fx"), "intrinsics.fx");
+  d.fy = top.number(top.need(k, "fy"), "intrinsics.fy");
+  d.cx = top.number(top.need(k, "cx"), "intrinsics.cx");
+  d.cy = top.number(top.need(k, "cy"), "intrinsics.cy");
+  d.width = static_cast<int>(top.integer(root["width"], "width"));
+  d.height = static_cast<int>(top.integer(root["height"], "height"));
+  d.depth_factor = top.number(root["depth_factor"], "depth_factor");
+  if (!(d.fx > 0) || !(d.fy > 0) || d.width <= 0 || d.height <= 0 || !(d.depth_factor > 0))
+    top.fail("intrinsics, width, height and depth_factor must be positive");
+  std::ifstream in(list);
+  std::string line;
+  for (int n = 1; std::getline(in, line); n++) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    double t = 0;
+    std::string path;
+    if (!(ls >> t >> path)) throw DataError(list + ":" + std::to_string(n) + ": expected 'timestamp path', got '" + line + "'");
+    d.files.push_back(path);
+  }
+  if (static_cast<int>(d.files.size()) != s.frames)
+    throw DataError(list + ": " + std::to_string(d.files.size()) + " depth maps for the " + std::to_string(s.frames) +
+                    " frames of objects.json");
+  s.depth = std::move(d);
+}
+
+}  // namespace
+
 Scene readScene(const std::string& dir) {
   if (!fs::exists(dir)) throw DataError("scene folder not found: " + dir);
   if (!fs::is_directory(dir))
@@ -256,6 +298,7 @@ Scene readScene(const std::string& dir) {
   }
   s.gt = traj::readTum(gt_file);
   if (s.gt.empty()) throw DataError(gt_file + ": no poses");
+  readSceneDepth(dir, root, top, s);
   return s;
 }
 
@@ -358,6 +401,54 @@ void alignRun(const Scene& scene, const Trajectory& traj, const ObjectEvalOption
                     " (more than --max-ate " + fmt("%g", opt.max_ate) + " m)");
 }
 
+/** Fills OldPlace::seen_after from the scene's ground-truth depth maps (one
+ *  read per frame after the first departure); false (left at -1) when the
+ *  scene has no depth or its ground truth is not one pose per frame. */
+bool placesSeenAfter(const Scene& scene, std::vector<GtObjectResult>& gt) {
+  const SceneDepth& d = scene.depth;
+  if (d.files.empty() || static_cast<int>(scene.gt.size()) != scene.frames) return false;
+  struct Samples {
+    GtObjectResult::OldPlace* place;
+    std::vector<Eigen::Vector3d> Xw;
+  };
+  std::vector<Samples> places;
+  int first = scene.frames;
+  for (auto& g : gt)
+    for (auto& p : g.old_places) {
+      Samples s{&p, {}};
+      for (int i = 0; i < 5; i++)
+        for (int j = 0; j < 5; j++)
+          for (int k = 0; k < 5; k++)  // the box: size around (0, 0, size.z / 2) in the object frame
+            s.Xw.push_back(p.box.T_wo * Eigen::Vector3d((i - 2) * 0.2 * p.box.size.x(), (j - 2) * 0.2 * p.box.size.y(),
+                                                        (0.1 + 0.2 * k) * p.box.size.z()));
+      p.seen_after = 0;
+      first = std::min(first, p.left_at + 1);
+      places.push_back(std::move(s));
+    }
+  for (int f = first; f < scene.frames && !places.empty(); f++) {
+    const std::string file = (fs::path(scene.dir) / d.files[static_cast<size_t>(f)]).string();
+    const cv::Mat depth = readImageFile(file, cv::IMREAD_UNCHANGED);
+    if (depth.empty() || depth.type() != CV_16UC1)
+      throw DataError(file + ": not a 16-bit depth map (depth.txt of the scene, frame " + std::to_string(f) + ")");
+    const SE3 T_cw = scene.gt.poses[static_cast<size_t>(f)].inverse();
+    for (Samples& s : places) {
+      if (f <= s.place->left_at) continue;
+      int seen = 0;
+      for (const Eigen::Vector3d& X : s.Xw) {
+        const Eigen::Vector3d Xc = T_cw * X;
+        if (Xc.z() < 0.1) continue;
+        const int u = static_cast<int>(std::lround(d.fx * Xc.x() / Xc.z() + d.cx));
+        const int v = static_cast<int>(std::lround(d.fy * Xc.y() / Xc.z() + d.cy));
+        if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows) continue;
+        const double z = depth.at<uint16_t>(v, u) / d.depth_factor;
+        seen += z > 0 && z >= Xc.z() - 0.1;
+      }
+      s.place->seen_after = std::max(s.place->seen_after, seen / static_cast<double>(s.Xw.size()));
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, const Trajectory& traj,
@@ -411,10 +502,13 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
         p.frame = f;
         p.seen = o.visibleIn(residenceStart(o, f), f);
         p.counted = p.seen >= opt.min_visible_pixels;
+        p.left_at = e->last;
         g.old_places.push_back(p);
       }
     r.gt.push_back(std::move(g));
   }
+
+  if (opt.place_seen_fraction > 0) r.place_visibility = placesSeenAfter(scene, r.gt);
 
   // Estimated objects of the map, in the ground-truth frame.
   r.est_in_file = est.objects.size();
@@ -584,6 +678,11 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
     r.stale += e.verdict == Verdict::Stale;
     r.false_objects += e.verdict == Verdict::False;
   }
+  for (const auto& g : r.gt)
+    for (const auto& p : g.old_places)
+      for (int64_t id : p.est)
+        for (const auto& e : r.est)
+          if (e.obj.id == id && e.verdict == Verdict::Stale && p.seenSince(opt.place_seen_fraction)) r.stale_seen++;
   return r;
 }
 
@@ -651,7 +750,11 @@ std::string toText(const ObjectEvalResult& r) {
       for (int64_t id : p.est) ids += (ids.empty() ? "#" : ",#") + std::to_string(id);
       o << pad("    left place @" + std::to_string(p.frame), 48) << pad(std::to_string(p.seen), 10)
         << pad(ids.empty() ? "-" : ids, 28) << (p.counted ? "" : "(seen too little) ") << "old object " << p.state
-        << (p.state == "active" ? " (stale)" : "") << "\n";
+        << (p.state == "active" ? " (stale)" : "");
+      if (r.place_visibility)
+        o << "; place " << (p.seenSince(opt.place_seen_fraction) ? "seen" : "not seen") << " since (up to "
+          << fmt("%.0f", 100 * p.seen_after) << " % in view)";
+      o << "\n";
     }
   }
   bool header = false;
@@ -666,7 +769,11 @@ std::string toText(const ObjectEvalResult& r) {
   }
   o << "\n";
   o << "recall (static objects)   " << ratio(r.static_found, r.static_total) << "\n";
-  o << "stale objects             " << r.stale << " (target 0)\n";
+  o << "stale objects             " << r.stale << " (target 0)";
+  if (r.place_visibility)
+    o << "; " << r.stale_seen << " at places seen since the object left, " << r.stale - r.stale_seen
+      << " at places never seen since";
+  o << "\n";
   o << "moved objects found       " << ratio(r.moved_found, r.moved_total);
   if (!r.moved_errors.empty())
     o << "; centroid error (to box) mean " << fmt("%.3f", mean(r.moved_errors)) << " m, max "
@@ -698,8 +805,15 @@ std::string toJson(const ObjectEvalResult& r) {
     }
     ojson places = ojson::array();
     for (const auto& p : g.old_places)
-      places.push_back({{"frame", p.frame}, {"centre", vec(p.box.centre())}, {"seen_pixels", p.seen},
-                        {"counted", p.counted}, {"estimates", p.est}, {"state", p.state}});
+      places.push_back({{"frame", p.frame},
+                        {"left_at", p.left_at},
+                        {"centre", vec(p.box.centre())},
+                        {"seen_pixels", p.seen},
+                        {"counted", p.counted},
+                        {"seen_after", p.seen_after >= 0 ? num(p.seen_after) : ojson(nullptr)},
+                        {"seen_since", r.place_visibility ? ojson(p.seenSince(opt.place_seen_fraction)) : ojson(nullptr)},
+                        {"estimates", p.est},
+                        {"state", p.state}});
     j["left_places"] = std::move(places);
     gts.push_back(std::move(j));
   }
@@ -731,6 +845,7 @@ std::string toJson(const ObjectEvalResult& r) {
              {"static_found", r.static_found},
              {"recall", num(r.recall())},
              {"stale", r.stale},
+             {"stale_place_seen", r.place_visibility ? ojson(r.stale_seen) : ojson(nullptr)},
              {"moved_total", r.moved_total},
              {"moved_found", r.moved_found},
              {"moved_error_mean", r.moved_errors.empty() ? ojson(nullptr) : num(mean(r.moved_errors))},

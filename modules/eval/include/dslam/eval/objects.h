@@ -105,13 +105,24 @@ struct SceneEvent {
   double t_first = 0, t_last = 0;
 };
 
-/** A `dslam synth` scene folder: objects.json + groundtruth.txt. */
+/** The scene's ground-truth depth maps (what the camera saw), for the
+ *  visibility of places objects left. Empty `files` when the folder has no
+ *  depth.txt or objects.json no intrinsics (older scenes): unknown. */
+struct SceneDepth {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+  double depth_factor = 0;          ///< stored value per metre
+  std::vector<std::string> files;   ///< per frame, paths relative to the scene folder
+};
+
+/** A `dslam synth` scene folder: objects.json + groundtruth.txt (+ depth). */
 struct Scene {
   std::string dir, name;
   int frames = 0;
   Trajectory gt;
   std::vector<SceneObject> objects;
   std::vector<SceneEvent> events;
+  SceneDepth depth;
   const SceneObject* find(const std::string& name) const;
 };
 
@@ -135,6 +146,12 @@ struct ObjectEvalOptions {
    *  ground-truth pose within max_dt. */
   double max_ate = 0.5;
   std::string run_name = "run", traj_name = "trajectory";  ///< for messages (file paths)
+  /** A place an object left counts as seen since when, in one frame after
+   *  it left, at least this fraction of a 5x5x5 grid of points filling its
+   *  box is in the image and not hidden (ground-truth depth at the pixel >=
+   *  the point's depth - 0.1 m): the camera saw through the place or onto
+   *  what stands there now. 0 = not computed. */
+  double place_seen_fraction = 0.5;
 };
 
 /** What happened to a ground-truth object during the sequence. */
@@ -171,6 +188,11 @@ struct GtObjectResult {
     bool counted = false;   ///< seen >= min_visible_pixels
     std::vector<int64_t> est;  ///< unmatched estimated objects of the class within match_radius
     std::string state;      ///< "inactive" (all of them), "active" (one is stale), "not mapped" (none)
+    int left_at = 0;        ///< last frame of the event (it is gone from the place after it)
+    /** Largest fraction of the place seen in one frame after it left
+     *  (ObjectEvalOptions::place_seen_fraction); -1 = unknown (no depth). */
+    double seen_after = -1;
+    bool seenSince(double fraction) const { return fraction > 0 && seen_after >= fraction; }
   };
   std::vector<OldPlace> old_places;
 };
@@ -207,6 +229,11 @@ struct ObjectEvalResult {
   int added_total = 0, added_found = 0;
   int gone_total = 0, gone_inactive = 0, gone_unmapped = 0;  ///< removed / replaced objects seen before
   int stale = 0, false_objects = 0;
+  /** Stale objects at places the camera saw after the object left (the
+   *  persistence filter had evidence to act on); the others stand at
+   *  places never seen since, which no observation can have corrected. */
+  int stale_seen = 0;
+  bool place_visibility = false;  ///< seen_after computed (the scene has depth)
   double recall() const { return static_total ? double(static_found) / static_total : 0; }
 };
 
