@@ -118,5 +118,34 @@ TEST(DetectionCarry, MasksMoveWithTheirRegions) {
   EXPECT_EQ(cv::countNonZero(c.semantic == 1), 120 * 200);
 }
 
+TEST(DetectionCarry, ChainedCarriesReuseThePyramidAndGiveTheSameBoxes) {
+  // Carried frame to frame (a -> b -> c), the second call reuses the pyramid
+  // the first built for b; its boxes are those of a call that builds both
+  // (bit for bit). An image changed in place after it was carried to is not
+  // mistaken for the one the kept pyramid was built from.
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150}), b = scene(fx.bg, fx.obj, {208, 146}),
+                c = scene(fx.bg, fx.obj, {217, 141}), other = scene(fx.bg, fx.obj, {100, 100});
+  Detections d;
+  d.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, 3});
+  auto box = [](const Detections& x) { return x.boxes.at(0).box; };
+  carryDetections(d, other, a, 1);  // leaves a's pyramid, not b's
+  const cv::Rect2f fresh = box(carryDetections(d, b, c, 1));  // builds both
+  carryDetections(d, a, b, 1);                                // keeps b's
+  const cv::Rect2f chained = box(carryDetections(d, b, c, 1));
+  EXPECT_EQ(chained, fresh);
+  EXPECT_NEAR(chained.x, 200 + 217 - 208, 1.0);  // moved by (c - b)
+  EXPECT_NEAR(chained.y, 150 + 141 - 146, 1.0);
+
+  cv::Mat buf = b.clone();
+  carryDetections(d, a, buf, 1);  // keeps the pyramid of buf as it is now
+  scene(fx.bg, fx.obj, {230, 160}).copyTo(buf);  // same buffer, other pixels
+  const cv::Rect2f changed = box(carryDetections(d, buf, c, 1));
+  carryDetections(d, other, a, 1);
+  EXPECT_EQ(changed, box(carryDetections(d, buf, c, 1)));
+  EXPECT_NEAR(changed.x, 200 + 217 - 230, 1.0);  // moved by (c - buf), not (c - b)
+  EXPECT_NEAR(changed.y, 150 + 141 - 160, 1.0);
+}
+
 }  // namespace
 }  // namespace dslam

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace dslam {
@@ -34,6 +35,15 @@ void pasteShifted(const cv::Mat& src, cv::Mat& dst, const cv::Rect& roi, T value
       if (s[x] == value && xd >= 0 && xd < dst.cols) d[xd] = value;
     }
   }
+}
+
+/** Whether two 8-bit grey images have the same size and pixels. */
+bool samePixels(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  const size_t row = static_cast<size_t>(a.cols) * a.elemSize();
+  for (int y = 0; y < a.rows; y++)
+    if (std::memcmp(a.ptr(y), b.ptr(y), row) != 0) return false;
+  return true;
 }
 
 /** One region to move: `mask` (CV_8U, roi-sized, non-zero = inside) or empty
@@ -90,10 +100,25 @@ std::vector<RegionMotion> regionMotions(const cv::Mat& from, const cv::Mat& to, 
   if (p0.empty()) return out;
   const cv::Size win(p.lk_window, p.lk_window);
   // Kept between calls: rebuilt in place instead of allocating (and page
-  // faulting) megabytes of pyramid and derivative images every frame.
+  // faulting) megabytes of pyramid and derivative images every frame. A
+  // detection is carried frame to frame (System: `from` is the image the
+  // previous call carried it to), so the pyramid of the last `to` is the one
+  // of the next `from`: reused when its level 0 holds the same pixels (a
+  // comparison costs about a twentieth of a pyramid).
   thread_local std::vector<cv::Mat> pyr_from, pyr_to;
-  const int levels = cv::buildOpticalFlowPyramid(from, pyr_from, win, p.lk_levels - 1);
-  cv::buildOpticalFlowPyramid(to, pyr_to, win, p.lk_levels - 1);
+  thread_local int to_levels = -1, to_max_level = -1;
+  thread_local cv::Size to_win;
+  int levels = 0;
+  if (to_levels >= 0 && to_win == win && to_max_level == p.lk_levels - 1 && samePixels(pyr_to[0], from)) {
+    std::swap(pyr_from, pyr_to);
+    levels = to_levels;
+  } else {
+    levels = cv::buildOpticalFlowPyramid(from, pyr_from, win, p.lk_levels - 1);
+  }
+  to_levels = cv::buildOpticalFlowPyramid(to, pyr_to, win, p.lk_levels - 1);
+  to_win = win;
+  to_max_level = p.lk_levels - 1;
+  levels = std::min(levels, to_levels);
   std::vector<cv::Point2f> p1, back;
   std::vector<uchar> st1, st2;
   std::vector<float> err;
