@@ -101,10 +101,7 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
       P_double("ltda_threshold", 0.25, "same class and centroids closer than this (m): the same object (LTDA)", 0, 100),
       P_double("cluster_radius", 0.3, "points of one class without an instance id: one candidate per cluster (m)", 0.01,
                100),
-      P_int("min_points", 3,
-            "smaller object candidates are ignored (ours; 5 before: static objects found 32/40 -> 34/40 and false "
-            "objects 23 -> 20 on the changing scenes and their seed-7 renders, docs/changing.md)",
-            1, 100000),
+      P_int("min_points", 5, "smaller object candidates are ignored", 1, 100000),
       P_int("min_shared_points", 3,
             "a candidate sharing this many map points with an object of its class is that object (before the "
             "centroid test; ours)",

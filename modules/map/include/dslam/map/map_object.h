@@ -85,7 +85,7 @@ constexpr int kLastCocoThing = 91;
 struct LtdaParams {
   double threshold_m = 0.25;      ///< same class and centroids closer than this: the same object
   double cluster_m = 0.3;         ///< points without an instance id: one candidate per cluster of this radius
-  int min_points = 3;             ///< smaller candidates are ignored (ObjectPersistenceFilter min_points)
+  int min_points = 5;             ///< smaller candidates are ignored
   size_t min_shared_points = 3;   ///< a candidate with this many of an object's points is that object
   std::vector<int> classes;       ///< classes that make objects ([] = every COCO thing, ids 1-91, except ignore_classes)
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
