@@ -3,6 +3,10 @@
 
   changing_tables.py STUDY_OUT [--dslam build/bin/dslam] [--variants changing_slam,...]
 
+Datasets named after a changing scene with a seed suffix (`shift_dark_s8`,
+config/studies/changing_heldout.yaml) are that scene rendered with
+--seed 8; their rows follow the scene's.
+
 For each variant and changing scene (the cells STUDY_OUT/cells/<variant>.<scene>.r0):
 the semantic object map scored by `dslam eval objects` (static objects found,
 stale objects, moved objects found and their centroid error, removed/replaced
@@ -17,6 +21,7 @@ import argparse
 import glob
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -31,7 +36,27 @@ SCENES = ["one_chair", "vanishing", "replacing", "shift", "shift_dark"]
 DARK = {"shift_dark": (1012.0, 1015.0)}  # lights out at frame 360, back at frame 450 (start_time 1000, 30 Hz)
 
 
+def base_scene(dataset):
+    """Scenario of a dataset name: 'shift_dark' for 'shift_dark' and 'shift_dark_s8' (a --seed render)."""
+    return re.sub(r"_s\d+$", "", dataset)
+
+
+def study_scenes(out):
+    """Datasets of the study that are changing scenes (SCENES and their seed renders), in SCENES order."""
+    names = {os.path.basename(c).split(".")[1] for c in glob.glob(os.path.join(out, "cells", "*.r0"))}
+    names = [n for n in names if base_scene(n) in SCENES]
+    return sorted(names, key=lambda n: (SCENES.index(base_scene(n)), n))
+
+
 def scene_dir(out, scene):
+    """The rendered scene of a dataset: the dataset_path of one of its cells, else STUDY_OUT/scenes/<scene>-*."""
+    for cell in sorted(glob.glob(os.path.join(out, "cells", f"*.{scene}.r0"))):
+        try:
+            path = json.load(open(os.path.join(cell, "cell.json"))).get("dataset_path")
+        except (OSError, ValueError):
+            path = None
+        if path and os.path.isdir(path):
+            return path
     found = sorted(d for d in glob.glob(os.path.join(out, "scenes", scene + "-*")) if ".tmp" not in d)
     return found[-1] if found else None
 
@@ -51,6 +76,7 @@ def main():
     ap.add_argument("--variants", default="changing_slam,changing_slam_no_object_keyframes")
     a = ap.parse_args()
     variants = a.variants.split(",")
+    scenes = study_scenes(a.out)
 
     print("Semantic object map at the end (`dslam eval objects RUN SCENE`):\n")
     print("| variant | scene | static objects found | stale (at places seen since) | moved found (max centroid-to-box "
@@ -59,7 +85,7 @@ def main():
     tot = {}
     for v in variants:
         sf = st = 0
-        for sc in SCENES:
+        for sc in scenes:
             run, scene = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run"), scene_dir(a.out, sc)
             if not scene or not os.path.exists(run + "/objects.json"):
                 continue
@@ -105,18 +131,20 @@ def main():
           "lights' return):\n")
     print("| variant | max [m] | median [m] |")
     print("|---|---|---|")
-    for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.shift_dark.r0"))):
-        scene = scene_dir(a.out, "shift_dark")
-        _, _, after, _ = after_return(scene + "/groundtruth.txt", os.path.join(cell, "run", "trajectory.txt"),
-                                      *DARK["shift_dark"], 30)
-        if after:
-            print("| %s | %.3f | %.3f |" % (os.path.basename(cell).split(".")[0], max(after), np.median(after)))
+    for sc in [n for n in scenes if base_scene(n) in DARK]:
+        for cell in sorted(glob.glob(os.path.join(a.out, "cells", f"*.{sc}.r0"))):
+            scene = scene_dir(a.out, sc)
+            _, _, after, _ = after_return(scene + "/groundtruth.txt", os.path.join(cell, "run", "trajectory.txt"),
+                                          *DARK[base_scene(sc)], 30)
+            if after:
+                name = os.path.basename(cell).split(".")[0] + ("" if sc in DARK else f" ({sc})")
+                print("| %s | %.3f | %.3f |" % (name, max(after), np.median(after)))
 
     print("\nObject layer cost (timing.csv map_manager: median / max per keyframe, mean per frame) [ms]:\n")
     print("| variant | scene | median | max | per frame |")
     print("|---|---|---|---|---|")
     for v in variants:
-        for sc in SCENES + ["walking_xyz"]:
+        for sc in scenes + ["walking_xyz"]:
             f = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run", "timing.csv")
             if not os.path.exists(f):
                 continue
