@@ -188,9 +188,7 @@ namespace {
  *  "timestamp path", or that lists another number of frames, is an error. */
 void readSceneDepth(const std::string& dir, const json& root, const At& top, Scene& s) {
   const std::string list = (fs::path(dir) / "depth.txt").string();
-  if (!fs::exists(list) || !root.contains("intrinsics") || !root.contains("depth_factor") ||
-      !root.contains("width") || !root.contains("height"))
-    return;
+  if (!fs::exists(list) || !root.contains("intrinsics") || !root.contains("depth_factor")) return;
   const json& k = root["intrinsics"];
   if (!k.is_object()) top.fail("'intrinsics' must be {fx, fy, cx, cy}");
   SceneDepth d;
@@ -198,11 +196,8 @@ void readSceneDepth(const std::string& dir, const json& root, const At& top, Sce
   d.fy = top.number(top.need(k, "fy"), "intrinsics.fy");
   d.cx = top.number(top.need(k, "cx"), "intrinsics.cx");
   d.cy = top.number(top.need(k, "cy"), "intrinsics.cy");
-  d.width = static_cast<int>(top.integer(root["width"], "width"));
-  d.height = static_cast<int>(top.integer(root["height"], "height"));
   d.depth_factor = top.number(root["depth_factor"], "depth_factor");
-  if (!(d.fx > 0) || !(d.fy > 0) || d.width <= 0 || d.height <= 0 || !(d.depth_factor > 0))
-    top.fail("intrinsics, width, height and depth_factor must be positive");
+  if (!(d.fx > 0) || !(d.fy > 0) || !(d.depth_factor > 0)) top.fail("intrinsics and depth_factor must be positive");
   std::ifstream in(list);
   std::string line;
   for (int n = 1; std::getline(in, line); n++) {
@@ -626,6 +621,7 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       e.gt_instance = g.instance_id;
       e.box_dist = d_old;
       e.verdict = e.obj.active ? Verdict::Stale : Verdict::Inactive;
+      r.stale_seen += e.verdict == Verdict::Stale && g.old_places[p.p].seenSince(opt.place_seen_fraction);
       e.note = "at the place " + g.name + " left (frame " + std::to_string(g.old_places[p.p].frame) + ")";
       continue;
     }
@@ -678,11 +674,6 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
     r.stale += e.verdict == Verdict::Stale;
     r.false_objects += e.verdict == Verdict::False;
   }
-  for (const auto& g : r.gt)
-    for (const auto& p : g.old_places)
-      for (int64_t id : p.est)
-        for (const auto& e : r.est)
-          if (e.obj.id == id && e.verdict == Verdict::Stale && p.seenSince(opt.place_seen_fraction)) r.stale_seen++;
   return r;
 }
 

@@ -372,7 +372,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
     const bool place_taken = !placeEvidence(*kf, o, now);
-    Evidence& ev = pending_[id];
+    Evidence ev;  // what earlier keyframes gathered without a decision, and this one
+    if (auto it = pending_.find(id); it != pending_.end()) {
+      ev = it->second;
+      pending_.erase(it);
+    }
     if (place_taken) {  // something of its class on its place: what was gathered on it is void
       ev = Evidence{};
       now.with_depth = now.through = now.other = 0;
@@ -387,7 +391,6 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     const bool judged = o.numPoints() >= 3 && ev.expected >= need;
     if (judged && ev.found >= present_fraction_ * ev.expected) {
       // Its points are there although no candidate was made of them (detector miss, labels): a sighting.
-      pending_.erase(id);
       const bool was_dormant = o.dormant;
       o.dormant = false;
       o.belief = objectBeliefSighted(o.belief, 0.0, static_cast<int>(o.numPoints()), belief_);
@@ -401,7 +404,6 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
     const bool free = placeFree(ev);
     if (free || (judged && ev.found < min_found_fraction_ * ev.expected)) {
-      pending_.erase(id);
       o.belief = objectBeliefMissed(o.belief, belief_);
       stats_.misses++;
       traceObject(*kf, o,
@@ -414,14 +416,13 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         }
         continue;
       }
-    } else if (ev.keyframes >= evidence_keyframes_) {
-      pending_.erase(id);  // not enough to decide on in the window: start again
+    } else if (ev.keyframes > 0 && ev.keyframes < evidence_keyframes_) {
+      pending_[id] = ev;  // not enough to decide on yet (a full window that was not enough starts again)
     }
     if (dormant_after_s_ > 0 && o.active && kf->timestamp - o.last_seen_t > dormant_after_s_) setDormant(o);
   }
-  // Nothing gathered, or objects merged into others or of another map (kept dormant until seen again).
-  for (auto it = pending_.begin(); it != pending_.end();)
-    it = objects.count(it->first) && it->second.keyframes > 0 ? std::next(it) : pending_.erase(it);
+  // Objects merged into others, or of another map (kept dormant until seen again).
+  for (auto it = pending_.begin(); it != pending_.end();) it = objects.count(it->first) ? std::next(it) : pending_.erase(it);
 }
 
 void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {

@@ -110,7 +110,6 @@ struct SceneEvent {
  *  depth.txt or objects.json no intrinsics (older scenes): unknown. */
 struct SceneDepth {
   double fx = 0, fy = 0, cx = 0, cy = 0;
-  int width = 0, height = 0;
   double depth_factor = 0;          ///< stored value per metre
   std::vector<std::string> files;   ///< per frame, paths relative to the scene folder
 };
