@@ -116,3 +116,19 @@ TEST(ObjectBelief, SightingsRaiseMissesLowerFarSightingsBarelyCount) {
   EXPECT_DOUBLE_EQ(c, p.belief_min);
   EXPECT_GT(objectBeliefSighted(c, 0.0, 50, p), 0.05);
 }
+
+TEST(ObjectBelief, PlaceSeenThroughWeighsMoreThanPointsNotFound) {
+  ObjectBeliefParams p;  // p_detect 0.8, p_false 0.1, p_see_through 0.1
+  // Seen through: the odds fall by p_see_through / (1 - p_false), not (1 - p_detect) / (1 - p_false).
+  const double through = objectBeliefMissed(0.84, p, true), points = objectBeliefMissed(0.84, p, false);
+  EXPECT_NEAR(through / (1 - through), 0.84 / 0.16 * 0.1 / 0.9, 1e-9);
+  EXPECT_NEAR(points / (1 - points), 0.84 / 0.16 * 0.2 / 0.9, 1e-9);
+  // A confident object (0.84) whose points are not found once and whose place is
+  // then seen through falls below the 0.2 threshold; two misses of its points
+  // alone leave it above (the shift scene's chair fragment: 0.84 -> 0.54 -> 0.205).
+  EXPECT_LT(objectBeliefMissed(points, p, true), 0.2);
+  EXPECT_GT(objectBeliefMissed(points, p, false), 0.2);
+  // With p_see_through = 1 - p_detect both are the same evidence.
+  p.p_see_through = 1 - p.p_detect;
+  EXPECT_DOUBLE_EQ(objectBeliefMissed(0.6, p, true), objectBeliefMissed(0.6, p, false));
+}

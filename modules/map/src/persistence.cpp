@@ -53,8 +53,8 @@ double objectBeliefSighted(double belief, double dist_m, int points, const Objec
   return std::clamp(b, p.belief_min, p.belief_max);
 }
 
-double objectBeliefMissed(double belief, const ObjectBeliefParams& p) {
-  const double present = 1 - p.p_detect, absent = 1 - p.p_false;
+double objectBeliefMissed(double belief, const ObjectBeliefParams& p, bool seen_through) {
+  const double present = seen_through ? p.p_see_through : 1 - p.p_detect, absent = 1 - p.p_false;
   const double b = belief * present / (belief * present + (1 - belief) * absent);
   return std::clamp(b, p.belief_min, p.belief_max);
 }

@@ -122,6 +122,10 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                1e-3, 100),
       P_double("p_detect", 0.8, "P(a present object in view is seen with points)", 0.01, 0.99),
       P_double("p_false", 0.1, "P(something of its class seen there although it is gone)", 0.001, 0.99),
+      P_double("p_see_through", 0.1,
+               "P(its place seen through, or another object seen there, although it is there: open or thin objects, "
+               "depth noise; ours: stronger negative evidence than 1 - p_detect for its points not found again)",
+               0.001, 0.99),
       P_double("dormant_after_s", 5.0,
                "objects not confirmed for this long are dormant (inactive, belief kept) until seen again; 0 = never",
                0, 1e9),
@@ -183,6 +187,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   belief_.min_sigma_m = p.getDouble("min_sigma");
   belief_.p_detect = p.getDouble("p_detect");
   belief_.p_false = p.getDouble("p_false");
+  belief_.p_see_through = p.getDouble("p_see_through");
   dormant_after_s_ = p.getDouble("dormant_after_s");
   dormant_on_lost_ = p.getBool("dormant_on_lost");
   max_range_ = p.getDouble("max_range");
@@ -404,7 +409,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
     const bool free = placeFree(ev);
     if (free || (judged && ev.found < min_found_fraction_ * ev.expected)) {
-      o.belief = objectBeliefMissed(o.belief, belief_);
+      o.belief = objectBeliefMissed(o.belief, belief_, free);
       stats_.misses++;
       traceObject(*kf, o,
                   free ? "negative evidence (its place seen through)" : "negative evidence (its points not found)");

@@ -58,6 +58,9 @@ struct ObjectBeliefParams {
   double min_sigma_m = 0.05;       ///< it shrinks as 1/sqrt(points), down to this
   double p_detect = 0.8;           ///< P(a present object in view is detected with points)
   double p_false = 0.1;            ///< P(something of its class seen there though it is gone)
+  double p_see_through = 0.1;      ///< P(its place seen through though it is there: an open or thin object,
+                                   ///< depth noise); below 1 - p_detect, since depth beyond its place says more
+                                   ///< than its points not being found again
   double belief_min = 0.01, belief_max = 0.99;  ///< clamps (the belief can always recover)
 };
 
@@ -65,7 +68,9 @@ struct ObjectBeliefParams {
  *  `dist_m` from the centroid of an object of `points` points. */
 double objectBeliefSighted(double belief, double dist_m, int points, const ObjectBeliefParams& p);
 /** Negative evidence: its place was in view and not occluded, and nothing of
- *  its class was there. */
-double objectBeliefMissed(double belief, const ObjectBeliefParams& p);
+ *  its class was there: its points were not found again (P = 1 - p_detect if
+ *  present) or, with `seen_through`, the camera saw through its place or onto
+ *  another object there (P = p_see_through if present). */
+double objectBeliefMissed(double belief, const ObjectBeliefParams& p, bool seen_through = false);
 
 }  // namespace dslam
