@@ -10,6 +10,7 @@
 
 #include "ba_synthetic.h"
 #include "dslam/core/backend.h"
+#include "dslam/core/timing.h"
 #include "dslam/core/error.h"
 #include "dslam/core/registry.h"
 
@@ -488,5 +489,37 @@ TEST(Backends, AbortFlagStopsTheOptimisationEarly) {
       EXPECT_LE(ra.iterations, 1);  // stops after its first iteration
     }
     EXPECT_LT(ra.final_cost, ra.initial_cost);  // what it did is kept, and is an improvement
+  }
+}
+
+// BAOptions::deadline (parallel local mapping's ba_max_ms): a deadline that
+// has passed stops it like the abort flag; one far ahead changes nothing
+// (same iterations and result as without).
+TEST(Backends, PassedDeadlineStopsTheOptimisationLikeTheAbortFlag) {
+  SynthBAConfig c;
+  c.stereo = true;
+  c.fixed_keyframes = 1;
+  c.pixel_sigma = 1;
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+    SCOPED_TRACE(name);
+    auto full = makeBA(c), later = full, stopped = full;
+    BAOptions o;
+    const BAResult rf = make(name)->bundleAdjust(full.problem, o);
+    ASSERT_TRUE(rf.success) << rf.message;
+    o.deadline = nowSeconds() + 3600;
+    const BAResult rl = make(name)->bundleAdjust(later.problem, o);
+    ASSERT_TRUE(rl.success) << rl.message;
+    EXPECT_FALSE(rl.aborted);
+    EXPECT_EQ(rl.iterations, rf.iterations);
+    EXPECT_TRUE(sameBits(later.problem.keyframes[3].T_cw, full.problem.keyframes[3].T_cw));
+    o.deadline = nowSeconds() - 1;
+    const BAResult rs = make(name)->bundleAdjust(stopped.problem, o);
+    ASSERT_TRUE(rs.success) << rs.message;
+    EXPECT_TRUE(rs.aborted);
+    EXPECT_LT(rs.iterations, rf.iterations);
+    if (std::string(name) == "dslam::CeresBackend") {
+      EXPECT_LE(rs.iterations, 1);
+    }
+    EXPECT_LT(rs.final_cost, rs.initial_cost);
   }
 }

@@ -27,6 +27,11 @@ std::vector<ParamSpec> LocalMapperParams::specs() {
       P_int("ba_max_fixed_keyframes", d.ba_max_fixed_keyframes,
             "keyframes held fixed in local BA: of those that see the optimised points, the ones with the most "
             "observations of them (ORB-SLAM2: all)", 1),
+      P_double("ba_max_ms", d.ba_max_ms,
+               "parallel mode: a local BA that has run this long (wall clock, ms) stops with its best estimate, as "
+               "when a new keyframe arrives (ORB-SLAM's abort), so that mapping keeps up when tracking and detection "
+               "share the cores; 0 = no limit. Sequential mode never stops a BA early (results do not depend on timing)",
+               0),
       P_enum("ba_inactive_points", d.ba_inactive_points_fixed ? "fixed" : "skip", {"fixed", "skip"},
              "map points the persistence filters made inactive (objects gone or dormant): 'fixed' = constant in "
              "local BA, so the observations older keyframes made of them while they were there keep those keyframes "
@@ -45,6 +50,7 @@ LocalMapperParams LocalMapperParams::fromParams(const Params& p) {
   m.ba_iterations = static_cast<int>(p.getInt("ba_iterations"));
   m.ba_max_keyframes = static_cast<int>(p.getInt("ba_max_keyframes"));
   m.ba_max_fixed_keyframes = static_cast<int>(p.getInt("ba_max_fixed_keyframes"));
+  m.ba_max_ms = p.getDouble("ba_max_ms");
   m.ba_inactive_points_fixed = p.getString("ba_inactive_points") == "fixed";
   return m;
 }
@@ -317,6 +323,7 @@ void LocalMapper::searchInNeighbors() {
 }
 
 void LocalMapper::localBundleAdjustment() {
+  const double t_start = nowSeconds();  // the time limit counts from here (building the problem included)
   BAProblem prob;
   size_t fixed_count = 0;
   std::vector<KeyFrame*> kfs;
@@ -391,7 +398,10 @@ void LocalMapper::localBundleAdjustment() {
   if (prob.observations.empty()) return;
   BAOptions opt;
   opt.max_iterations = p_.ba_iterations;
-  if (worker_.running()) opt.abort = &abort_ba_;  // parallel: a new keyframe stops it (sequential: never)
+  if (worker_.running()) {  // parallel: a new keyframe or the time limit stops it (sequential: never)
+    opt.abort = &abort_ba_;
+    if (p_.ba_max_ms > 0) opt.deadline = t_start + p_.ba_max_ms * 1e-3;
+  }
   const BAResult r = backend_->bundleAdjust(prob, opt);
   last_ba_ = {cur_->id,          static_cast<int>(kfs.size() - fixed_count), static_cast<int>(fixed_count),
               static_cast<int>(pts.size()), static_cast<int>(prob.observations.size()), r.iterations,

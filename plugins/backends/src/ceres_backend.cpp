@@ -31,17 +31,16 @@ struct CeresBackend::Settings : backends::CommonSettings {
 namespace {
 
 /** Ends a solve with its best estimate when the caller's abort flag is set
- *  (ORB-SLAM's g2o setForceStopFlag). */
+ *  (ORB-SLAM's g2o setForceStopFlag) or its deadline has passed. */
 class AbortCallback : public ceres::IterationCallback {
  public:
-  explicit AbortCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  explicit AbortCallback(const BAOptions& opt) : opt_(opt) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    return flag_ && flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                                          : ceres::SOLVER_CONTINUE;
+    return backends::abortRequested(opt_) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
   }
 
  private:
-  const std::atomic<bool>* flag_;
+  const BAOptions& opt_;
 };
 
 // Parameter block of a pose: [qx qy qz qw tx ty tz] (Eigen quaternion
@@ -339,8 +338,8 @@ BAResult CeresBackend::bundleAdjust(BAProblem& problem, const BAOptions& opt_in)
       so.linear_solver_ordering = ordering;
     }
 
-    AbortCallback abort_cb(opt.abort);
-    if (opt.abort) so.callbacks.push_back(&abort_cb);
+    AbortCallback abort_cb(opt);
+    if (opt.abort || opt.deadline > 0) so.callbacks.push_back(&abort_cb);
     ceres::Solver::Summary sum;
     ceres::Solve(so, &P, &sum);
     if (opt.verbose) DSLAM_LOG(Info, "CeresBackend BA pass: " << sum.BriefReport());

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "dslam/core/backend.h"
+#include "dslam/core/timing.h"
 #include "dslam/core/params.h"
 
 namespace dslam::backends {
@@ -43,13 +44,15 @@ double observationChi2(const BAProblem& p, const BAObservation& o, bool* depth_o
  *  camera. Returns the number of observations newly flagged. */
 int markOutliers(BAProblem& p, const CommonSettings& s);
 
-/** BAOptions::abort is set. */
-inline bool abortRequested(const BAOptions& o) { return o.abort && o.abort->load(std::memory_order_relaxed); }
+/** BAOptions::abort is set, or BAOptions::deadline has passed. */
+inline bool abortRequested(const BAOptions& o) {
+  return (o.abort && o.abort->load(std::memory_order_relaxed)) || (o.deadline > 0 && nowSeconds() >= o.deadline);
+}
 
 /** ORB-SLAM's outlier scheme around one optimisation pass
  *  `pass(iterations, robust) -> bool`: with opt.reject_outliers, a robust
  *  first pass of s.first_pass_iterations, the chi2 test, a second pass without
- *  the robust kernel and the test again (skipped when opt.abort is set after
+ *  the robust kernel and the test again (skipped when opt.abort is set or opt.deadline passed after
  *  the first); otherwise one pass. Adds the flagged
  *  observations to *num_outliers; returns whether every pass succeeded. */
 template <class Pass>

@@ -69,6 +69,10 @@ struct BAOptions {
    *  nullptr = never stops early (sequential mode: results do not depend on
    *  timing). */
   const std::atomic<bool>* abort = nullptr;
+  /** Wall-clock deadline (dslam::nowSeconds()), read like `abort`: a pass
+   *  running then ends with its best estimate and no further pass starts.
+   *  0 = none (sequential mode: results do not depend on timing). */
+  double deadline = 0;
 };
 
 struct BAResult {

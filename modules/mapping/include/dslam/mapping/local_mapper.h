@@ -32,6 +32,7 @@ struct LocalMapperParams {
   int ba_iterations = 10;             ///< second pass iterations (first pass 5, ORB-SLAM)
   int ba_max_keyframes = 20;          ///< optimised keyframes: the new one + its best covisibles
   int ba_max_fixed_keyframes = 20;    ///< fixed keyframes: those seeing the most local points
+  double ba_max_ms = 200;             ///< parallel mode: local BA stops with its best estimate after this long (0 = never)
   bool ba_inactive_points_fixed = true; ///< inactive points (persistence filters) constant in local BA; false = left out
   bool monocular = false;
 
