@@ -46,18 +46,25 @@ struct Around {
   bool occluded = false;   ///< one of them is nearer than the point by more than the margin
   bool match = false;      ///< one of them is the point (see Match)
 };
+constexpr int kNoClassTest = -2;  ///< lookAround: keypoint labels not used
 enum class Match {
   None,              ///< no descriptor test
   Descriptor,        ///< descriptor distance only
   DescriptorAndDepth ///< descriptor distance, and a depth within the margin of the point's
 };
 Around lookAround(const KeyFrame& kf, const MapPoint& p, const cv::Point2f& uv, double z, float radius,
-                  double occlusion_margin, int max_descriptor_distance, Match m) {
+                  double occlusion_margin, int max_descriptor_distance, Match m, int own_class = kNoClassTest) {
   Around a;
   for (size_t i : kf.featuresInArea(uv.x, uv.y, radius)) {
     const float d = i < kf.depth.size() ? kf.depth[i] : 0.f;
     if (d > 0) a.any_depth = true;
     if (d > 0 && d < z - occlusion_margin) a.occluded = true;
+    // A keypoint without depth in another object's box: most likely on that
+    // object's silhouette (depth sensors drop depth at depth edges), which
+    // may stand in front of the point and cover its descriptor's patch.
+    if (own_class != kNoClassTest && !(d > 0) && i < kf.meta.size() && kf.meta[i].class_id >= 0 &&
+        kf.meta[i].class_id != own_class)
+      a.occluded = true;
     if (m == Match::None || a.match) continue;
     if (m == Match::DescriptorAndDepth && !(d > 0 && std::abs(d - z) <= occlusion_margin)) continue;
     a.match = descriptorDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)), p.desc.data()) <=
@@ -252,7 +259,7 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
       continue;
     }
     const Around a = lookAround(kf, *p, uv, z, static_cast<float>(match_radius_px_), occlusion_margin_,
-                                max_descriptor_distance_, Match::DescriptorAndDepth);
+                                max_descriptor_distance_, Match::DescriptorAndDepth, o.class_id);
     if (a.occluded || !a.any_depth) continue;  // hidden, or nothing to tell
     ev.expected++;
     ev.found += a.match;
