@@ -171,7 +171,7 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
       P_int("new_object_keypoints", 10,
             "a detected object with this many keypoints with depth, at most a fifth of them on established map "
             "points (seen by 3 keyframes), asks for a keyframe, so that objects seen while tracking needs none get "
-            "mapped (ours; 0 = off: static objects found by the semantic map 17/20 -> 8/20 on the changing scenes; "
+            "mapped (ours; 0 = off: static objects found by the semantic map 18/20 -> 8/20 on the changing scenes; "
             "docs/changing.md)",
             0, 100000),
       P_double("new_object_keyframe_gap", 1.0, "at most one such keyframe request per this many seconds", 0, 1e9),
