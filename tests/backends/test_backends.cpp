@@ -463,63 +463,46 @@ TEST(Backends, PoseGraphExtraFixedNodes) {
   }
 }
 
-// BAOptions::abort (parallel local mapping: a new keyframe arrived): the pass
-// running stops at its next iteration with its best estimate so far, no
-// second pass runs, and the result says it was aborted. Both backends.
-TEST(Backends, AbortFlagStopsTheOptimisationEarly) {
+// BAOptions::abort (parallel local mapping: a new keyframe arrived) and
+// BAOptions::deadline (its ba_max_ms): the pass running stops at its next
+// iteration with its best estimate so far, no second pass runs, and the
+// result says it was aborted. A flag never set and a deadline far ahead
+// change nothing (same iterations and result as without). Both backends.
+TEST(Backends, AbortFlagOrPassedDeadlineStopsTheOptimisationEarly) {
   SynthBAConfig c;
   c.stereo = true;
   c.fixed_keyframes = 1;
   c.pixel_sigma = 1;
   for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
     SCOPED_TRACE(name);
-    auto full = makeBA(c), stopped = full;
-    BAOptions o;  // ORB-SLAM scheme: robust pass, outlier test, second pass
+    auto plain = makeBA(c), full = plain;
+    const BAResult rp = make(name)->bundleAdjust(plain.problem, BAOptions{});  // ORB-SLAM scheme: 2 passes
+    ASSERT_TRUE(rp.success) << rp.message;
+    BAOptions o;
     std::atomic<bool> never{false}, now{true};
     o.abort = &never;
+    o.deadline = nowSeconds() + 3600;
     const BAResult rf = make(name)->bundleAdjust(full.problem, o);
     ASSERT_TRUE(rf.success) << rf.message;
     EXPECT_FALSE(rf.aborted);
-    o.abort = &now;
-    const BAResult ra = make(name)->bundleAdjust(stopped.problem, o);
-    ASSERT_TRUE(ra.success) << ra.message;
-    EXPECT_TRUE(ra.aborted);
-    EXPECT_LT(ra.iterations, rf.iterations);
-    if (std::string(name) == "dslam::CeresBackend") {
-      EXPECT_LE(ra.iterations, 1);  // stops after its first iteration
+    EXPECT_EQ(rf.iterations, rp.iterations);
+    EXPECT_TRUE(sameBits(full.problem.keyframes[3].T_cw, plain.problem.keyframes[3].T_cw));
+    for (const bool by_deadline : {false, true}) {
+      SCOPED_TRACE(by_deadline ? "deadline" : "abort flag");
+      auto stopped = makeBA(c);
+      BAOptions so;
+      if (by_deadline)
+        so.deadline = nowSeconds() - 1;
+      else
+        so.abort = &now;
+      const BAResult ra = make(name)->bundleAdjust(stopped.problem, so);
+      ASSERT_TRUE(ra.success) << ra.message;
+      EXPECT_TRUE(ra.aborted);
+      EXPECT_LT(ra.iterations, rf.iterations);
+      if (std::string(name) == "dslam::CeresBackend") {
+        EXPECT_LE(ra.iterations, 1);  // stops after its first iteration
+      }
+      EXPECT_LT(ra.final_cost, ra.initial_cost);  // what it did is kept, and is an improvement
     }
-    EXPECT_LT(ra.final_cost, ra.initial_cost);  // what it did is kept, and is an improvement
-  }
-}
-
-// BAOptions::deadline (parallel local mapping's ba_max_ms): a deadline that
-// has passed stops it like the abort flag; one far ahead changes nothing
-// (same iterations and result as without).
-TEST(Backends, PassedDeadlineStopsTheOptimisationLikeTheAbortFlag) {
-  SynthBAConfig c;
-  c.stereo = true;
-  c.fixed_keyframes = 1;
-  c.pixel_sigma = 1;
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
-    SCOPED_TRACE(name);
-    auto full = makeBA(c), later = full, stopped = full;
-    BAOptions o;
-    const BAResult rf = make(name)->bundleAdjust(full.problem, o);
-    ASSERT_TRUE(rf.success) << rf.message;
-    o.deadline = nowSeconds() + 3600;
-    const BAResult rl = make(name)->bundleAdjust(later.problem, o);
-    ASSERT_TRUE(rl.success) << rl.message;
-    EXPECT_FALSE(rl.aborted);
-    EXPECT_EQ(rl.iterations, rf.iterations);
-    EXPECT_TRUE(sameBits(later.problem.keyframes[3].T_cw, full.problem.keyframes[3].T_cw));
-    o.deadline = nowSeconds() - 1;
-    const BAResult rs = make(name)->bundleAdjust(stopped.problem, o);
-    ASSERT_TRUE(rs.success) << rs.message;
-    EXPECT_TRUE(rs.aborted);
-    EXPECT_LT(rs.iterations, rf.iterations);
-    if (std::string(name) == "dslam::CeresBackend") {
-      EXPECT_LE(rs.iterations, 1);
-    }
-    EXPECT_LT(rs.final_cost, rs.initial_cost);
   }
 }
