@@ -32,11 +32,16 @@ bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv,
 }
 
 /** Whether keyframe `kf` should see map point `p`: it projects inside the
- *  image (pixel `uv`, depth `z`), nearer than `max_range`, within 60 degrees
- *  of the point's mean viewing direction (ORB-SLAM's viewing-angle test). */
+ *  image (pixel `uv`, depth `z`), nearer than `max_range`, within the
+ *  point's scale-invariance distance range and within 60 degrees of its
+ *  mean viewing direction (ORB-SLAM's isInFrustum tests: outside them its
+ *  descriptor is not expected to match). */
 bool pointInView(const KeyFrame& kf, const MapPoint& p, double max_range, cv::Point2f& uv, double& z) {
   if (!projectInto(kf, p.pos, uv, z) || z > max_range) return false;
-  return (p.pos - kf.center()).normalized().dot(p.normal) >= 0.5;
+  const Eigen::Vector3d PO = p.pos - kf.center();
+  const double dist = PO.norm();
+  if (p.max_dist > 0 && (dist < 0.8 * p.min_dist || dist > 1.2 * p.max_dist)) return false;
+  return PO.dot(p.normal) >= 0.5 * dist;
 }
 
 /** What the keypoints of `kf` within `radius` pixels of the projection
