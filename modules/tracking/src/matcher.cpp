@@ -151,7 +151,7 @@ int Matcher::searchByProjection(TrackedFrame& F, KeyFrame* kf, const std::set<co
     float invz, u, v;
     if (!project(F.cam, Tcw * mp->pos, invz, u, v)) continue;
     const float d3 = static_cast<float>((mp->pos - Ow).norm());
-    if (d3 < 0.8f * mp->min_dist || d3 > 1.2f * mp->max_dist) continue;
+    if (!mp->inScaleRange(d3)) continue;
     const int level = mp->predictScale(d3, sc.log_scale_factor, sc.n_levels);
     const float r = th * sc.scale[level];
     F.grid.featuresInArea(u, v, r, level - 1, level + 1, cand);
@@ -282,7 +282,7 @@ int bestInKeyFrame(const KeyFrame* kf, const MapPoint& mp, const Eigen::Vector3d
   const float v = kf->cam.fy * static_cast<float>(Xc.y()) * invz + kf->cam.cy;
   if (!kf->cam.bounds.contains(u, v)) return -1;
   const float d3 = static_cast<float>(Ow_dir.norm());
-  if (d3 < 0.8f * mp.min_dist || d3 > 1.2f * mp.max_dist) return -1;
+  if (!mp.inScaleRange(d3)) return -1;
   const auto& sc = *kf->scale;
   const int level = mp.predictScale(d3, sc.log_scale_factor, sc.n_levels);
   const float r = th * sc.scale[level];
@@ -477,7 +477,7 @@ int Matcher::fuse(KeyFrame* kf, const std::vector<MapPointPtr>& pts, float th) c
     const float ur = u - kf->cam.bf * invz;
     const Eigen::Vector3d PO = mp->pos - Ow;
     const float d3 = static_cast<float>(PO.norm());
-    if (d3 < 0.8f * mp->min_dist || d3 > 1.2f * mp->max_dist) continue;
+    if (!mp->inScaleRange(d3)) continue;
     if (PO.dot(mp->normal) < 0.5 * d3) continue;
     const int level = mp->predictScale(d3, sc.log_scale_factor, sc.n_levels);
     const float r = th * sc.scale[level];

@@ -333,7 +333,7 @@ bool Tracker::isInFrustum(MapPoint& mp, float view_cos_limit) {
   if (!cam_.bounds.contains(u, v)) return false;
   const Eigen::Vector3d PO = mp.pos - cur_.center();
   const float d = static_cast<float>(PO.norm());
-  if (d < 0.8f * mp.min_dist || d > 1.2f * mp.max_dist) return false;
+  if (!mp.inScaleRange(d)) return false;
   const float view_cos = static_cast<float>(PO.dot(mp.normal)) / d;
   if (view_cos < view_cos_limit) return false;
   mp.track_in_view = true;

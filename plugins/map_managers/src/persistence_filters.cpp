@@ -40,7 +40,7 @@ bool pointInView(const KeyFrame& kf, const MapPoint& p, double max_range, cv::Po
   if (!projectInto(kf, p.pos, uv, z) || z > max_range) return false;
   const Eigen::Vector3d PO = p.pos - kf.center();
   const double dist = PO.norm();
-  if (p.max_dist > 0 && (dist < 0.8 * p.min_dist || dist > 1.2 * p.max_dist)) return false;
+  if (p.max_dist > 0 && !p.inScaleRange(static_cast<float>(dist))) return false;  // 0: range never computed
   return PO.dot(p.normal) >= 0.5 * dist;
 }
 

@@ -56,6 +56,10 @@ class MapPoint {
   void computeDistinctiveDescriptor();
   /** Recomputes normal and min/max distance from the observations. */
   void updateNormalAndDepth();
+  /** Whether distance `dist` is within its scale-invariance range, 0.8 x
+   *  min_dist to 1.2 x max_dist (ORB-SLAM isInFrustum): beyond it the point's
+   *  descriptor is not expected to match. */
+  bool inScaleRange(float dist) const { return !(dist < 0.8f * min_dist || dist > 1.2f * max_dist); }
   /** Pyramid level at which the point should be seen from distance `dist`. */
   int predictScale(float dist, float log_scale_factor, int n_levels) const;
 
