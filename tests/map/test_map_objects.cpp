@@ -158,3 +158,88 @@ TEST(MapObject, OverlappingPartsOfOneObjectMerge) {
   EXPECT_TRUE(objects.count(12));  // the far table
   EXPECT_TRUE(objects.count(13));  // the chair: another class
 }
+
+namespace {
+
+/** An object of class `cls` made of `pts`, each with a random descriptor
+ *  (seed `seed`) unless `desc` gives them. */
+MapObject objectOf(int cls, const std::vector<MapPointPtr>& pts, unsigned seed) {
+  MapObject o;
+  o.class_id = cls;
+  std::mt19937 rng(seed);
+  for (const auto& p : pts) {
+    for (auto& b : p->desc) b = static_cast<uint8_t>(rng() & 0xff);
+    o.points[p->id] = p;
+  }
+  o.refresh();
+  return o;
+}
+
+/** Copies of `pts` (new ids from `id0`) moved by (R, t), with the same
+ *  descriptors but `flip` bits changed. */
+std::vector<MapPointPtr> movedCopy(const std::vector<MapPointPtr>& pts, const Eigen::Matrix3d& R,
+                                   const Eigen::Vector3d& t, int64_t id0, int flip = 6) {
+  std::vector<MapPointPtr> out;
+  std::mt19937 rng(99);
+  std::normal_distribution<double> noise(0, 0.01);
+  for (size_t i = 0; i < pts.size(); i++) {
+    auto p = std::make_shared<MapPoint>(id0 + static_cast<int64_t>(i),
+                                        R * pts[i]->pos + t + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)),
+                                        nullptr, nullptr);
+    p->class_id = pts[i]->class_id;
+    p->desc = pts[i]->desc;
+    for (int k = 0; k < flip; k++) p->desc[rng() % 32] ^= static_cast<uint8_t>(1u << (rng() % 8));
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(MapObject, ReidentifiesAnObjectMovedRigidlyOnly) {
+  auto a = blob({0, 0, 2}, 40, 0, 0.4);
+  const MapObject old = objectOf(62, a, 1);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d t(0.6, 0, 0.2);
+  // Moved 0.6 m and turned 23 degrees, with 10 points of something else.
+  auto moved = movedCopy(std::vector<MapPointPtr>(a.begin(), a.begin() + 30), R, t, 1000);
+  auto clutter = blob({0.6, 0, 2}, 10, 2000, 0.4);
+  MapObject seen = objectOf(62, clutter, 2);
+  for (const auto& p : moved) seen.points[p->id] = p;
+  seen.refresh();
+  ReidParams p;  // 8 inliers within 8 cm, at least 0.25 m
+  const ObjectMotion m = reidentify(seen, old, p);
+  EXPECT_TRUE(m.moved);
+  EXPECT_GE(m.inliers, 28);
+  EXPECT_LE(m.matches, 32);  // the clutter's random descriptors rarely match
+  EXPECT_NEAR(m.shift, (R * old.centroid + t - old.centroid).norm(), 0.02);
+  EXPECT_LT((m.R * old.centroid + m.t - (R * old.centroid + t)).norm(), 0.02);
+  // Another class, or fewer matches than min_inliers: not it.
+  MapObject other_class = seen;
+  other_class.class_id = 63;
+  EXPECT_FALSE(reidentify(other_class, old, p).moved);
+  p.min_inliers = 31;
+  EXPECT_FALSE(reidentify(seen, old, p).moved);
+  p = ReidParams{};
+  // The same appearance at the same place is no move (association's business).
+  const MapObject in_place = objectOf(62, movedCopy(a, Eigen::Matrix3d::Identity(), {0.1, 0, 0}, 3000), 0);
+  MapObject same_place = in_place;
+  for (auto& [id, q] : same_place.points) q->desc = a[static_cast<size_t>(id - 3000)]->desc;
+  EXPECT_FALSE(reidentify(same_place, old, p).moved);
+  // The descriptors match but no rigid motion explains the positions: not one object.
+  auto shuffled = movedCopy(a, R, t, 4000, 0);
+  std::mt19937 rng(5);
+  for (size_t i = shuffled.size() - 1; i > 0; i--) std::swap(shuffled[i]->pos, shuffled[rng() % (i + 1)]->pos);
+  MapObject scrambled;
+  scrambled.class_id = 62;
+  for (const auto& q : shuffled) scrambled.points[q->id] = q;
+  scrambled.refresh();
+  const ObjectMotion s = reidentify(scrambled, old, p);
+  EXPECT_GE(s.matches, 35);
+  EXPECT_FALSE(s.moved);
+  EXPECT_LT(s.inliers, 8);
+  // Objects sharing a map point are parts of one.
+  MapObject sharing = seen;
+  sharing.points[a[0]->id] = a[0];
+  EXPECT_FALSE(reidentify(sharing, old, p).moved);
+}

@@ -483,3 +483,52 @@ TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
     EXPECT_EQ(run(evidence, 3, 1).misses, 0);  // one keyframe is still not enough
   }
 }
+
+namespace {
+
+/** The chair seen at t 0, tracking lost, then at t 3 a keyframe turned 90
+ *  degrees sees the whole world (chair and wall) turned with it: the chair
+ *  stands 4.2 m from where it was, which is out of view. With
+ *  `same_appearance` false the chair seen there has other descriptors
+ *  (another chair). Returns the old object after that keyframe. */
+MapObject chairMovedWhileLost(const std::string& yaml, bool same_appearance, PersistenceStats& stats) {
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>(yaml, atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const int64_t old_id = s.map->objects().begin()->first;
+  filter->onTrackingLost(s.map);
+  Scene moved(filter->currentMap());
+  const SE3 T_wc = poseAt({0, 0, 0}, 90).inverse();
+  for (auto& x : moved.world.w.X) x = T_wc * x;
+  if (!same_appearance)
+    for (auto& d : moved.world.w.desc)
+      for (auto& b : d) b = static_cast<uint8_t>(~b);
+  filter->onKeyFrame(moved.keyframe(3.0, poseAt({0, 0, 0}, 90), true));
+  EXPECT_EQ(s.map->objects().size(), 2u);  // the chair at its new place is a new object
+  stats = filter->stats();
+  return *s.map->objects().at(old_id);
+}
+
+}  // namespace
+
+TEST(ObjectPersistenceFilter, AnObjectSeenElsewhereWhileItsPlaceIsOutOfViewWasMoved) {
+  PersistenceStats st;
+  // Its descriptors there, one rigid motion away: gone from its old place (not
+  // dormant, which would keep it in the semantic map).
+  const MapObject gone = chairMovedWhileLost("{}", true, st);
+  EXPECT_FALSE(gone.active);
+  EXPECT_FALSE(gone.dormant);
+  EXPECT_LT(gone.belief, 0.2);
+  EXPECT_EQ(st.reidentified, 1);
+  for (const auto& [id, p] : gone.points) EXPECT_FALSE(p->active);
+  // Another chair of the same class there says nothing about this one: dormant as before.
+  const MapObject other = chairMovedWhileLost("{}", false, st);
+  EXPECT_TRUE(other.dormant);
+  EXPECT_DOUBLE_EQ(other.belief, 0.5);
+  EXPECT_EQ(st.reidentified, 0);
+  // Re-identification off: the moved chair's old object stays dormant (stale).
+  const MapObject off = chairMovedWhileLost("{reid_min_inliers: 0}", true, st);
+  EXPECT_TRUE(off.dormant);
+  EXPECT_EQ(st.reidentified, 0);
+}

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <tuple>
 
+#include <Eigen/Geometry>
+
+#include "dslam/core/descriptor.h"
 #include "dslam/map/keyframe.h"
 
 namespace dslam {
@@ -258,6 +262,100 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
     }
   }
   return merges;
+}
+
+ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidParams& p) {
+  ObjectMotion m;
+  if (seen.class_id != old.class_id || p.min_inliers < 3) return m;
+  std::vector<const MapPoint*> a, b;
+  for (const auto& [id, q] : seen.points) {
+    if (old.points.count(id)) return m;  // shares points: partial views of one object, not a move
+    if (q && !q->bad) a.push_back(q.get());
+  }
+  for (const auto& [id, q] : old.points)
+    if (q && !q->bad) b.push_back(q.get());
+  if (static_cast<int>(a.size()) < p.min_inliers || static_cast<int>(b.size()) < p.min_inliers) return m;
+  // An old point looks like any of its observations (the views before and
+  // after a move differ: distance, side): its distinctive descriptor and up
+  // to 6 observation descriptors, one flat list.
+  std::vector<const uint8_t*> rows;
+  std::vector<size_t> row_point;
+  for (size_t j = 0; j < b.size(); j++)
+    for (const uint8_t* d : b[j]->descriptorViews(6)) {
+      rows.push_back(d);
+      row_point.push_back(j);
+    }
+  // Best match of each seen point (distinctive descriptor) among the old
+  // points (ratio test against the second best *point*); one seen point per
+  // old point (the closest).
+  std::vector<std::pair<int, size_t>> best_for_old(b.size(), {std::numeric_limits<int>::max(), 0});
+  std::vector<int> d_point(b.size());
+  for (size_t i = 0; i < a.size(); i++) {
+    std::fill(d_point.begin(), d_point.end(), std::numeric_limits<int>::max());
+    for (size_t r = 0; r < rows.size(); r++)
+      d_point[row_point[r]] = std::min(d_point[row_point[r]], descriptorDistance(a[i]->desc.data(), rows[r]));
+    int best = std::numeric_limits<int>::max(), second = best;
+    size_t bj = 0;
+    for (size_t j = 0; j < b.size(); j++) {
+      const int d = d_point[j];
+      if (d < best) {
+        second = best, best = d, bj = j;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best > p.max_descriptor_distance || best >= p.ratio * second) continue;
+    if (best < best_for_old[bj].first) best_for_old[bj] = {best, i};
+  }
+  std::vector<Eigen::Vector3d> src, dst;  // old -> seen
+  for (size_t j = 0; j < b.size(); j++)
+    if (best_for_old[j].first != std::numeric_limits<int>::max()) {
+      src.push_back(b[j]->pos);
+      dst.push_back(a[best_for_old[j].second]->pos);
+    }
+  m.matches = static_cast<int>(src.size());
+  if (m.matches < p.min_inliers) return m;
+  const size_t n = src.size();
+  auto fit = [&](const std::vector<size_t>& idx, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+    Eigen::Matrix3Xd S(3, idx.size()), D(3, idx.size());
+    for (size_t k = 0; k < idx.size(); k++) S.col(k) = src[idx[k]], D.col(k) = dst[idx[k]];
+    const Eigen::Matrix4d T = Eigen::umeyama(S, D, false);
+    R = T.topLeftCorner<3, 3>();
+    t = T.topRightCorner<3, 1>();
+  };
+  auto inliersOf = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+    std::vector<size_t> in;
+    for (size_t k = 0; k < n; k++)
+      if ((R * src[k] + t - dst[k]).norm() <= p.inlier_m) in.push_back(k);
+    return in;
+  };
+  std::mt19937 rng(20161);  // fixed seed: the same map gives the same answer
+  std::vector<size_t> best_in;
+  const double min_side = 2 * p.inlier_m;
+  for (int it = 0; it < p.iterations; it++) {
+    const size_t i = rng() % n, j = rng() % n, k = rng() % n;
+    if (i == j || j == k || i == k) continue;
+    // A well-spread triangle on both sides, and the same shape (rigid).
+    const Eigen::Vector3d u = src[j] - src[i], v = src[k] - src[i];
+    if (u.cross(v).norm() < min_side * min_side) continue;
+    if (std::abs(u.norm() - (dst[j] - dst[i]).norm()) > p.inlier_m ||
+        std::abs(v.norm() - (dst[k] - dst[i]).norm()) > p.inlier_m)
+      continue;
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    fit({i, j, k}, R, t);
+    auto in = inliersOf(R, t);
+    if (in.size() > best_in.size()) best_in = std::move(in);
+  }
+  if (static_cast<int>(best_in.size()) < p.min_inliers) {
+    m.inliers = static_cast<int>(best_in.size());
+    return m;
+  }
+  fit(best_in, m.R, m.t);
+  m.inliers = static_cast<int>(inliersOf(m.R, m.t).size());
+  m.shift = (m.R * old.centroid + m.t - old.centroid).norm();
+  m.moved = m.inliers >= p.min_inliers && m.shift >= p.min_shift_m;
+  return m;
 }
 
 }  // namespace dslam

@@ -59,6 +59,17 @@ void MapPoint::computeDistinctiveDescriptor() {
   std::copy(ds[best_i], ds[best_i] + 32, desc.begin());
 }
 
+std::vector<const uint8_t*> MapPoint::descriptorViews(size_t max_views) const {
+  std::vector<const uint8_t*> v{desc.data()};
+  for (const auto& [id_, o] : obs_) {
+    if (v.size() > max_views) break;
+    const KeyFrame* kf = o.first;
+    if (kf && !kf->bad && o.second >= 0 && o.second < kf->descriptors.rows)
+      v.push_back(kf->descriptors.ptr<uint8_t>(o.second));
+  }
+  return v;
+}
+
 void MapPoint::updateNormalAndDepth() {
   if (obs_.empty() || !ref_kf) return;
   Eigen::Vector3d n = Eigen::Vector3d::Zero();

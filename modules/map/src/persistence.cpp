@@ -59,4 +59,9 @@ double objectBeliefMissed(double belief, const ObjectBeliefParams& p, bool seen_
   return std::clamp(b, p.belief_min, p.belief_max);
 }
 
+double objectBeliefSeenElsewhere(double belief, const ObjectBeliefParams& p) {
+  const double b = belief * p.p_twin / (belief * p.p_twin + (1 - belief) * p.p_detect);
+  return std::clamp(b, p.belief_min, p.belief_max);
+}
+
 }  // namespace dslam

@@ -93,7 +93,8 @@ std::string PersistenceStats::str() const {
          std::to_string(deactivated) + " deactivated, " + std::to_string(reactivated) + " reactivated, " +
          std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken" +
          (keyframe_requests > 0 ? ", " + std::to_string(keyframe_requests) + " keyframes requested" : "") +
-         (merged > 0 ? ", " + std::to_string(merged) + " merged" : "");
+         (merged > 0 ? ", " + std::to_string(merged) + " merged" : "") +
+         (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "");
 }
 
 // ---------------------------------------------------------------------------
@@ -138,6 +139,17 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "P(its place seen through, or another object seen there, although it is there: open or thin objects, "
                "depth noise; ours: stronger negative evidence than 1 - p_detect for its points not found again)",
                0.001, 0.99),
+      P_double("p_twin", 0.01,
+               "P(its appearance seen elsewhere, moved rigidly, although it is still there: an identical twin; "
+               "ours)",
+               1e-6, 1),
+      P_int("reid_min_inliers", 8,
+            "re-identification (ours): an object seen in a keyframe whose points match the descriptors of this many "
+            "points of a same-class object not seen for long, all moved by one rigid motion, is that object moved: "
+            "negative evidence (p_twin) for it at its old place; 0 = off",
+            0, 100000),
+      P_double("reid_inlier_distance", 0.08, "re-identification: a match within this of the rigid motion (m)", 1e-3,
+               10),
       P_double("dormant_after_s", 5.0,
                "objects not confirmed for this long are dormant (inactive, belief kept) until seen again; 0 = never",
                0, 1e9),
@@ -200,6 +212,9 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   belief_.p_detect = p.getDouble("p_detect");
   belief_.p_false = p.getDouble("p_false");
   belief_.p_see_through = p.getDouble("p_see_through");
+  belief_.p_twin = p.getDouble("p_twin");
+  reid_.min_inliers = static_cast<int>(p.getInt("reid_min_inliers"));
+  reid_.inlier_m = p.getDouble("reid_inlier_distance");
   dormant_after_s_ = p.getDouble("dormant_after_s");
   dormant_on_lost_ = p.getBool("dormant_on_lost");
   max_range_ = p.getDouble("max_range");
@@ -213,6 +228,8 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   match_radius_px_ = p.getDouble("match_radius");
   evidence_keyframes_ = static_cast<int>(p.getInt("evidence_keyframes"));
   max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
+  reid_.max_descriptor_distance = max_descriptor_distance_;
+  reid_.min_shift_m = ltda_.threshold_m;
   new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
   new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
   last_request_t_ = -1e300;
@@ -379,6 +396,9 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   stats_.merged += mergeOverlappingObjects(objects, [this](const MapObject& o) {
     return o.active && !o.dormant && o.belief >= belief_threshold_;
   });
+  std::vector<const MapObject*> seen_now;  // what this keyframe saw, for re-identification
+  for (int64_t id : seen)
+    if (auto it = objects.find(id); it != objects.end()) seen_now.push_back(it->second.get());
   std::unordered_set<const MapPoint*> kf_points;
   for (const auto& p : kf->points)
     if (p) kf_points.insert(p.get());
@@ -418,6 +438,37 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       if (!o.active && o.belief >= belief_threshold_) o.setActive(true);
       traceObject(*kf, o, was_dormant ? "woken (points found)" : "sighted (points found)");
       continue;
+    }
+    // Its appearance seen elsewhere, displaced rigidly: it was moved (ours).
+    if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
+      bool moved = false;
+      for (const MapObject* s : seen_now) {
+        const ObjectMotion mv = s->class_id == o.class_id ? reidentify(*s, o, reid_) : ObjectMotion{};
+        if (!mv.moved) {
+          if (mv.matches > 0)
+            DSLAM_LOG(Trace, "objects: keyframe " << kf->id << ": object " << o.id << " not object " << s->id
+                                                  << " moved (" << mv.inliers << " of " << mv.matches
+                                                  << " matches, shift " << mv.shift << " m)");
+          continue;
+        }
+        o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
+        stats_.reidentified++;
+        traceObject(*kf, o,
+                    ("re-identified as object " + std::to_string(s->id) + ", moved " + std::to_string(mv.shift) +
+                     " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches)")
+                        .c_str());
+        moved = true;
+        break;
+      }
+      if (moved && o.belief < belief_threshold_) {
+        o.dormant = false;
+        if (o.active) {
+          o.setActive(false);
+          stats_.deactivated++;
+        }
+        pending_.erase(id);
+        continue;
+      }
     }
     const bool free = placeFree(ev);
     if (free || (judged && ev.found < min_found_fraction_ * ev.expected)) {

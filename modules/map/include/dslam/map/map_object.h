@@ -128,4 +128,34 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
 size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
                                size_t min_points = 5);
 
+/** Re-identification of a moved object (ours, beyond Changing-SLAM). */
+struct ReidParams {
+  int max_descriptor_distance = 50;  ///< ORB distance of a descriptor match
+  double ratio = 0.8;                ///< ... and below this fraction of the second best
+  double inlier_m = 0.08;            ///< a match within this of the rigid motion is an inlier
+  int min_inliers = 8;               ///< fewer: not the same object
+  double min_shift_m = 0.25;         ///< a smaller motion is no move (the same place: association's)
+  int iterations = 64;               ///< RANSAC hypotheses (3 matches each)
+};
+
+/** The rigid motion that takes an object's points onto another's. */
+struct ObjectMotion {
+  int matches = 0;   ///< descriptor matches
+  int inliers = 0;   ///< consistent with `T`
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  double shift = 0;  ///< how far the old centroid moves under (R, t)
+  bool moved = false;  ///< min_inliers inliers and shift >= min_shift_m
+};
+
+/** Whether `seen` is `old` moved: descriptor matches between their points
+ *  (the distinctive descriptor of each point of `seen` against those of
+ *  `old`'s points and of up to 6 of their observations; best under
+ *  max_descriptor_distance and under `ratio` x the second best point)
+ *  that one rigid motion explains (RANSAC on 3 matches, deterministic,
+ *  Umeyama on the inliers), moving `old`'s centroid by at least
+ *  min_shift_m. Objects of different classes, or sharing map points, are
+ *  never one moved. */
+ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidParams& p);
+
 }  // namespace dslam

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -54,6 +55,10 @@ class MapPoint {
 
   /** Recomputes `desc` as the observation descriptor with least median distance to the others. */
   void computeDistinctiveDescriptor();
+  /** Its distinctive descriptor, then those of up to `max_views` of its
+   *  observations (oldest keyframe first): how it looked from each view.
+   *  The pointers live as long as the keyframes (hold the map's lock). */
+  std::vector<const uint8_t*> descriptorViews(size_t max_views) const;
   /** Recomputes normal and min/max distance from the observations. */
   void updateNormalAndDepth();
   /** Whether distance `dist` is within its scale-invariance range, 0.8 x

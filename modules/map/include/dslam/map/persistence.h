@@ -61,6 +61,7 @@ struct ObjectBeliefParams {
   double p_see_through = 0.1;      ///< P(its place seen through though it is there: an open or thin object,
                                    ///< depth noise); below 1 - p_detect, since depth beyond its place says more
                                    ///< than its points not being found again
+  double p_twin = 0.01;            ///< P(its appearance seen elsewhere, moved rigidly, though it is still there)
   double belief_min = 0.01, belief_max = 0.99;  ///< clamps (the belief can always recover)
 };
 
@@ -72,5 +73,9 @@ double objectBeliefSighted(double belief, double dist_m, int points, const Objec
  *  present) or, with `seen_through`, the camera saw through its place or onto
  *  another object there (P = p_see_through if present). */
 double objectBeliefMissed(double belief, const ObjectBeliefParams& p, bool seen_through = false);
+/** Re-identification: its appearance seen elsewhere, displaced by one rigid
+ *  motion (P = p_twin if it is still there, an identical twin; p_detect if
+ *  it was moved there). */
+double objectBeliefSeenElsewhere(double belief, const ObjectBeliefParams& p);
 
 }  // namespace dslam

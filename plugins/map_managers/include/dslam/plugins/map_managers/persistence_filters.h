@@ -15,7 +15,9 @@
  *  not confirmed for `dormant_after_s` seconds, or when tracking is lost,
  *  are dormant (inactive, belief kept) until a keyframe sees them again, so
  *  an object moved while out of view cannot pull relocalisation, loop
- *  closure or map merging to its old place.
+ *  closure or map merging to its old place; and an object not seen for long
+ *  whose appearance a keyframe shows elsewhere, displaced by one rigid
+ *  motion (re-identification), loses belief at its old place.
  *
  *  dslam::PointPersistenceFilter (Rosen et al. 2016, as Hashemifar and Dantu
  *  put it into ORB-SLAM): a feature persistence filter per map point of no
@@ -48,6 +50,7 @@ struct PersistenceStats {
   int64_t woken = 0;        ///< dormant objects confirmed again
   int64_t keyframe_requests = 0;  ///< keyframes asked for unmapped objects in view
   int64_t merged = 0;             ///< objects merged into another (partial views of one object)
+  int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
   std::string str() const;
 };
 
@@ -97,6 +100,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   void setDormant(MapObject& o);
 
   LtdaParams ltda_;
+  ReidParams reid_;
   ObjectBeliefParams belief_;
   double initial_belief_ = 0.5, belief_threshold_ = 0.2;
   int long_term_keyframes_ = 5;
