@@ -4,6 +4,7 @@
 // or see it again.
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <utility>
 
 #include "dslam/core/params.h"
@@ -486,6 +487,20 @@ TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
 
 namespace {
 
+/** A copy of the world (chair and wall, same descriptors) turned 90 degrees
+ *  about the camera, seen by a keyframe turned with it: an identical chair
+ *  4.2 m from the first one, whose place is then out of view. */
+KeyFramePtr turnedTwinKeyFrame(const std::shared_ptr<Map>& map, double t, bool same_appearance,
+                               std::unique_ptr<Scene>& twin) {
+  twin = std::make_unique<Scene>(map);
+  const SE3 T_wc = poseAt({0, 0, 0}, 90).inverse();
+  for (auto& x : twin->world.w.X) x = T_wc * x;
+  if (!same_appearance)
+    for (auto& d : twin->world.w.desc)
+      for (auto& b : d) b = static_cast<uint8_t>(~b);
+  return twin->keyframe(t, poseAt({0, 0, 0}, 90), true);
+}
+
 /** The chair seen at t 0, tracking lost, then at t 3 a keyframe turned 90
  *  degrees sees the whole world (chair and wall) turned with it: the chair
  *  stands 4.2 m from where it was, which is out of view. With
@@ -498,13 +513,8 @@ MapObject chairMovedWhileLost(const std::string& yaml, bool same_appearance, Per
   filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
   const int64_t old_id = s.map->objects().begin()->first;
   filter->onTrackingLost(s.map);
-  Scene moved(filter->currentMap());
-  const SE3 T_wc = poseAt({0, 0, 0}, 90).inverse();
-  for (auto& x : moved.world.w.X) x = T_wc * x;
-  if (!same_appearance)
-    for (auto& d : moved.world.w.desc)
-      for (auto& b : d) b = static_cast<uint8_t>(~b);
-  filter->onKeyFrame(moved.keyframe(3.0, poseAt({0, 0, 0}, 90), true));
+  std::unique_ptr<Scene> moved;
+  filter->onKeyFrame(turnedTwinKeyFrame(filter->currentMap(), 3.0, same_appearance, moved));
   EXPECT_EQ(s.map->objects().size(), 2u);  // the chair at its new place is a new object
   stats = filter->stats();
   return *s.map->objects().at(old_id);
@@ -531,4 +541,33 @@ TEST(ObjectPersistenceFilter, AnObjectSeenElsewhereWhileItsPlaceIsOutOfViewWasMo
   const MapObject off = chairMovedWhileLost("{reid_min_inliers: 0}", true, st);
   EXPECT_TRUE(off.dormant);
   EXPECT_EQ(st.reidentified, 0);
+}
+
+TEST(ObjectPersistenceFilter, AnIdenticalTwinSeenElsewhereDeactivatesItUntilItIsSeenAgain) {
+  // The price of re-identification: two identical chairs, one in view, the
+  // other (not seen for 3 s) out of view, are read as one chair moved.
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{dormant_after_s: 0}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObject& first = *s.map->objects().begin()->second;
+  ASSERT_TRUE(first.active);
+  std::unique_ptr<Scene> twin;
+  filter->onKeyFrame(turnedTwinKeyFrame(filter->currentMap(), 3.0, true, twin));
+  EXPECT_FALSE(first.active);
+  EXPECT_FALSE(first.dormant);
+  EXPECT_EQ(filter->stats().reidentified, 1);
+  // Seen at its place again: each long-term sighting raises the belief
+  // (0.01 -> 0.075 -> 0.39), the second one above the threshold.
+  int sightings = 0;
+  for (double t = 6.0; !first.active && sightings < 5; t += 3.0, sightings++)
+    filter->onKeyFrame(s.keyframe(t, poseAt({0, 0, 0}), true));
+  EXPECT_TRUE(first.active);
+  EXPECT_EQ(sightings, 2);
+  for (const auto& [id, p] : first.points) EXPECT_TRUE(p->active);
+  // ... and now the twin, not seen for long, is the one read as moved: the
+  // two deactivate each other in turn, each coming back where it is seen.
+  EXPECT_EQ(filter->stats().reidentified, 2);
+  ASSERT_EQ(s.map->objects().size(), 2u);
+  EXPECT_FALSE(std::prev(s.map->objects().end())->second->active);
 }
