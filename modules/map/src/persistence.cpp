@@ -45,23 +45,29 @@ double FeaturePersistence::belief(double t) const {
   return std::clamp(b, 0.0, 1.0);
 }
 
+namespace {
+
+/** Bayes update of P(still there) with the likelihoods of an observation if
+ *  present and if absent, clamped so that it can always recover. */
+double bayesBelief(double belief, double present, double absent, const ObjectBeliefParams& p) {
+  const double b = belief * present / (belief * present + (1 - belief) * absent);
+  return std::clamp(b, p.belief_min, p.belief_max);
+}
+
+}  // namespace
+
 double objectBeliefSighted(double belief, double dist_m, int points, const ObjectBeliefParams& p) {
   const double sigma = std::max(p.min_sigma_m, p.sigma_m / std::sqrt(std::max(1, points)));
   const double present = p.p_detect * std::exp(-0.5 * dist_m * dist_m / (sigma * sigma));
-  const double absent = p.p_false;
-  const double b = belief * present / (belief * present + (1 - belief) * absent);
-  return std::clamp(b, p.belief_min, p.belief_max);
+  return bayesBelief(belief, present, p.p_false, p);
 }
 
 double objectBeliefMissed(double belief, const ObjectBeliefParams& p, bool seen_through) {
-  const double present = seen_through ? p.p_see_through : 1 - p.p_detect, absent = 1 - p.p_false;
-  const double b = belief * present / (belief * present + (1 - belief) * absent);
-  return std::clamp(b, p.belief_min, p.belief_max);
+  return bayesBelief(belief, seen_through ? p.p_see_through : 1 - p.p_detect, 1 - p.p_false, p);
 }
 
 double objectBeliefSeenElsewhere(double belief, const ObjectBeliefParams& p) {
-  const double b = belief * p.p_twin / (belief * p.p_twin + (1 - belief) * p.p_detect);
-  return std::clamp(b, p.belief_min, p.belief_max);
+  return bayesBelief(belief, p.p_twin, p.p_detect, p);
 }
 
 }  // namespace dslam

@@ -350,6 +350,13 @@ void ObjectPersistenceFilter::setDormant(MapObject& o) {
   stats_.dormant++;
 }
 
+void ObjectPersistenceFilter::setGone(MapObject& o) {
+  o.dormant = false;
+  if (!o.active) return;
+  o.setActive(false);
+  stats_.deactivated++;
+}
+
 void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   FilteringMapManager::onKeyFrame(kf);
   Map* m = kf ? kf->map : nullptr;
@@ -443,7 +450,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
       for (const MapObject* s : seen_now) {
-        const ObjectMotion mv = s->class_id == o.class_id ? reidentify(*s, o, reid_) : ObjectMotion{};
+        const ObjectMotion mv = reidentify(*s, o, reid_);
         if (!mv.moved) {
           if (mv.matches > 0)
             DSLAM_LOG(Trace, "objects: keyframe " << kf->id << ": object " << o.id << " not object " << s->id
@@ -461,12 +468,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         break;
       }
       if (moved && o.belief < belief_threshold_) {
-        o.dormant = false;
-        if (o.active) {
-          o.setActive(false);
-          stats_.deactivated++;
-        }
-        pending_.erase(id);
+        setGone(o);
         continue;
       }
     }
@@ -477,11 +479,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       traceObject(*kf, o,
                   free ? "negative evidence (its place seen through)" : "negative evidence (its points not found)");
       if (o.belief < belief_threshold_) {
-        o.dormant = false;
-        if (o.active) {
-          o.setActive(false);
-          stats_.deactivated++;
-        }
+        setGone(o);
         continue;
       }
     } else if (ev.keyframes > 0 && ev.keyframes < evidence_keyframes_) {

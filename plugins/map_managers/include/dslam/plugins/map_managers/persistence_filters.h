@@ -98,6 +98,9 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   bool placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const;
   bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
+  /** Below the belief threshold: inactive, and no longer dormant (gone, not
+   *  waiting to be seen again). */
+  void setGone(MapObject& o);
 
   LtdaParams ltda_;
   ReidParams reid_;
