@@ -1,4 +1,4 @@
-// Bundle adjustment and pose-graph timings of CeresBackend and MrptBackend on
+// Bundle adjustment and pose-graph timings of CeresBackend, SchurBackend and MrptBackend on
 // the seeded synthetic problems of tests/backends/ba_synthetic.h.
 //
 //   bench_backends --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -90,6 +90,8 @@ void runPG(benchmark::State& state, const char* name) {
 
 BENCHMARK_CAPTURE(runBA, Ceres_10kf_1000pt_mono_orbslam, "dslam::CeresBackend", small(), orbslam())
     ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(runBA, Schur_10kf_1000pt_mono_orbslam, "dslam::SchurBackend", small(), orbslam())
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(runBA, Mrpt_10kf_1000pt_mono_orbslam, "dslam::MrptBackend", small(), orbslam())
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(runBA, Ceres_10kf_1000pt_mono_lsq10, "dslam::CeresBackend", small(), leastSquares())
@@ -97,6 +99,8 @@ BENCHMARK_CAPTURE(runBA, Ceres_10kf_1000pt_mono_lsq10, "dslam::CeresBackend", sm
 BENCHMARK_CAPTURE(runBA, Mrpt_10kf_1000pt_mono_lsq10, "dslam::MrptBackend", small(), leastSquares())
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam, "dslam::CeresBackend", localBA(), orbslam())
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(runBA, Schur_20kf_3000pt_stereo_orbslam, "dslam::SchurBackend", localBA(), orbslam())
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam_sparse, "dslam::CeresBackend", localBA(), orbslam(),
                   "linear_solver: sparse_schur")

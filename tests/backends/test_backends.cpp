@@ -88,9 +88,9 @@ BAOptions leastSquares(int iterations = 50) {
 
 }  // namespace
 
-TEST(Backends, RegistryCreatesBoth) {
+TEST(Backends, RegistryCreatesAll) {
   register_builtin_plugins();
-  for (const char* n : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* n : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     auto b = create<Backend>(n);
     ASSERT_TRUE(b) << n;
     EXPECT_STREQ(b->interfaceName(), "Backend");
@@ -99,6 +99,7 @@ TEST(Backends, RegistryCreatesBoth) {
   const auto names = pluginNames(CLASS_ID(Backend));
   EXPECT_NE(std::find(names.begin(), names.end(), "dslam::CeresBackend"), names.end());
   EXPECT_NE(std::find(names.begin(), names.end(), "dslam::MrptBackend"), names.end());
+  EXPECT_NE(std::find(names.begin(), names.end(), "dslam::SchurBackend"), names.end());
 }
 
 TEST(Backends, YamlParamsAreValidatedAndOverrideOptions) {
@@ -108,7 +109,7 @@ TEST(Backends, YamlParamsAreValidatedAndOverrideOptions) {
   EXPECT_THROW(Params::resolve(b->paramSpecs(), "max_iters: 3"), ConfigError);
 
   // max_iterations written in the YAML overrides the caller's BAOptions.
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     auto s = makeBA({});
     auto be = make(name, "max_iterations: 1");
     const BAResult r = be->bundleAdjust(s.problem, leastSquares(50));
@@ -124,7 +125,7 @@ TEST(Backends, YamlParamsAreValidatedAndOverrideOptions) {
 }
 
 TEST(Backends, InvalidProblemIsADataError) {
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     auto be = make(name);
     auto s = makeBA({});
     s.problem.observations[3].pt = 5000;
@@ -254,15 +255,82 @@ TEST(Backends, MonoDefaultOptionsBothBackendsAgree) {
   for (const auto* p : {&pc, &pm}) EXPECT_LT(poseDiff(poses(*p), s0.true_T_cw).max_t, 0.015);
 }
 
-// Stereo / RGB-D observations (Ceres): exact observations -> the ground
-// truth is recovered; with pyramid-level noise -> the noise floor.
-TEST(Backends, CeresStereoRecoversPosesAndPoints) {
+// SchurBackend minimises the same cost as CeresBackend with another solver:
+// plain least squares reaches the same minimum; with the ORB-SLAM scheme on
+// a local-BA-like stereo problem (20 keyframes, 3000 points, 2 % outliers)
+// the same observations are flagged, up to a few borderline ones, and the
+// poses agree to noise level.
+TEST(Backends, SchurAndCeresReachTheSameMinimum) {
+  {
+    const auto s0 = makeBA({});
+    const BAOptions o = leastSquares(50);
+    BAProblem pc = s0.problem, ps = s0.problem;
+    const BAResult rc = make("dslam::CeresBackend")->bundleAdjust(pc, o);
+    const BAResult rs = make("dslam::SchurBackend")->bundleAdjust(ps, o);
+    ASSERT_TRUE(rc.success) << rc.message;
+    ASSERT_TRUE(rs.success) << rs.message;
+    EXPECT_NE(rs.message.find("schur 8 kf"), std::string::npos) << rs.message;
+    // both stop at Ceres' function tolerance (1e-6 relative): the same minimum to that precision
+    EXPECT_NEAR(rs.final_cost, rc.final_cost, 1e-6 * rc.final_cost);
+    const PoseErr d = poseDiff(poses(pc), poses(ps));
+    EXPECT_LT(d.max_t, 1e-4);
+    EXPECT_LT(d.max_r_deg, 1e-3);
+    EXPECT_LT(medianPointDiff(pc, points(ps)), 1e-4);
+    std::printf("mono LS: Ceres %.4f (%d it, %.1f ms) / Schur %.4f (%d it, %.1f ms); pose diff %.2g m\n",
+                rc.final_cost, rc.iterations, rc.time_ms, rs.final_cost, rs.iterations, rs.time_ms, d.max_t);
+  }
+  SynthBAConfig c;
+  c.keyframes = 20;
+  c.points = 3000;
+  c.path_length = 12;
+  c.stereo = true;
+  c.levels = 4;
+  c.fixed_keyframes = 2;
+  c.outlier_ratio = 0.02;
+  const auto s0 = makeBA(c);
+  BAProblem pc = s0.problem, ps = s0.problem;
+  const BAResult rc = make("dslam::CeresBackend")->bundleAdjust(pc, BAOptions{});
+  const BAResult rs = make("dslam::SchurBackend")->bundleAdjust(ps, BAOptions{});
+  ASSERT_TRUE(rc.success) << rc.message;
+  ASSERT_TRUE(rs.success) << rs.message;
+  int differ = 0;
+  for (size_t i = 0; i < pc.observations.size(); i++) differ += pc.observations[i].outlier != ps.observations[i].outlier;
+  EXPECT_LT(differ, 0.002 * pc.observations.size());
+  EXPECT_NEAR(rs.final_cost, rc.final_cost, 0.01 * rc.final_cost);
+  const PoseErr d = poseDiff(poses(pc), poses(ps));
+  EXPECT_LT(d.max_t, 1e-3);
+  EXPECT_LT(d.max_r_deg, 0.01);
+  EXPECT_LT(poseDiff(poses(ps), s0.true_T_cw).max_t, 1.2 * poseDiff(poses(pc), s0.true_T_cw).max_t + 1e-3);
+  std::printf("stereo local BA, ORB-SLAM scheme: Ceres %.1f (%d outliers, %d it, %.0f ms) / Schur %.1f (%d "
+              "outliers, %d it, %.0f ms); %d flags differ; pose diff %.2g m %.2g deg\n",
+              rc.final_cost, rc.num_outliers, rc.iterations, rc.time_ms, rs.final_cost, rs.num_outliers,
+              rs.iterations, rs.time_ms, differ, d.max_t, d.max_r_deg);
+}
+
+// More free keyframes than dense_max_keyframes: CeresBackend solves it.
+TEST(Backends, SchurHandsLargeProblemsToCeres) {
+  auto s = makeBA({});
+  const BAResult r = make("dslam::SchurBackend", "dense_max_keyframes: 5")->bundleAdjust(s.problem, leastSquares(30));
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.message.find("schur"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("SCHUR"), std::string::npos) << r.message;  // Ceres' solver name
+  auto t = makeBA({});
+  const BAResult rs = make("dslam::SchurBackend", "dense_max_keyframes: 8")->bundleAdjust(t.problem, leastSquares(30));
+  EXPECT_NE(rs.message.find("schur 8 kf"), std::string::npos) << rs.message;
+  EXPECT_NEAR(rs.final_cost, r.final_cost, 1e-6 * r.final_cost);
+}
+
+// Stereo / RGB-D observations (Ceres and Schur): exact observations -> the
+// ground truth is recovered; with pyramid-level noise -> the noise floor.
+TEST(Backends, StereoRecoversPosesAndPoints) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::SchurBackend"}) {
+  SCOPED_TRACE(name);
   SynthBAConfig c;
   c.stereo = true;
   c.fixed_keyframes = 1;
   c.pixel_sigma = 0;
   auto s = makeBA(c);
-  BAResult r = make("dslam::CeresBackend")->bundleAdjust(s.problem, leastSquares(30));
+  BAResult r = make(name)->bundleAdjust(s.problem, leastSquares(30));
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_GT(r.initial_cost, 1e5);
   EXPECT_LT(r.final_cost, 1e-6);
@@ -270,15 +338,15 @@ TEST(Backends, CeresStereoRecoversPosesAndPoints) {
   EXPECT_LT(e.max_t, 1e-6);
   EXPECT_LT(e.max_r_deg, 1e-6);
   EXPECT_LT(medianPointDiff(s.problem, s.true_X), 1e-6);
-  std::printf("stereo exact: cost %.3g -> %.3g in %d it, pose err %.2g m %.2g deg\n", r.initial_cost, r.final_cost,
-              r.iterations, e.max_t, e.max_r_deg);
+  std::printf("%s stereo exact: cost %.3g -> %.3g in %d it, pose err %.2g m %.2g deg\n", name, r.initial_cost,
+              r.final_cost, r.iterations, e.max_t, e.max_r_deg);
 
   c.pixel_sigma = 1;
   c.levels = 4;  // sigma 1.2^level, information 1 / sigma^2
   s = makeBA(c);
   const BAOptions o = leastSquares(30);
   const double truth = costAtTruth(s, o);
-  r = make("dslam::CeresBackend")->bundleAdjust(s.problem, o);
+  r = make(name)->bundleAdjust(s.problem, o);
   ASSERT_TRUE(r.success) << r.message;
   const int m = 3 * static_cast<int>(s.problem.observations.size()), n = 6 * 9 + 3 * 1000;
   EXPECT_LE(r.final_cost, truth);
@@ -288,24 +356,27 @@ TEST(Backends, CeresStereoRecoversPosesAndPoints) {
   EXPECT_LT(e.max_r_deg, 0.15);
   // depth from an 8 cm baseline at 3-7 m: a few cm
   EXPECT_LT(medianPointDiff(s.problem, s.true_X), 0.04);
-  std::printf("stereo noisy: cost %.1f -> %.1f (truth %.1f), pose err %.2g m %.2g deg\n", r.initial_cost,
-              r.final_cost, truth, e.max_t, e.max_r_deg);
+  std::printf("%s stereo noisy: cost %.1f -> %.1f (truth %.1f) in %d it, %.1f ms, pose err %.2g m %.2g deg\n",
+              name, r.initial_cost, r.final_cost, truth, r.iterations, r.time_ms, e.max_t, e.max_r_deg);
+  }
 }
 
 // 5% gross outliers (20-60 px): the ORB-SLAM scheme flags them and the
 // result stays as accurate as without the outliers (same problem, same
 // inlier noise, same scheme).
-TEST(Backends, CeresRejectsGrossOutliers) {
+TEST(Backends, GrossOutliersAreRejected) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::SchurBackend"})
   for (bool stereo : {false, true}) {
+    SCOPED_TRACE(name);
     SynthBAConfig c;
     c.stereo = stereo;
     c.fixed_keyframes = stereo ? 1 : 2;
     auto clean = makeBA(c);
-    ASSERT_TRUE(make("dslam::CeresBackend")->bundleAdjust(clean.problem, BAOptions{}).success);
+    ASSERT_TRUE(make(name)->bundleAdjust(clean.problem, BAOptions{}).success);
     const PoseErr clean_err = poseDiff(poses(clean.problem), clean.true_T_cw);
     c.outlier_ratio = 0.05;
     auto s = makeBA(c);
-    const BAResult r = make("dslam::CeresBackend")->bundleAdjust(s.problem, BAOptions{});
+    const BAResult r = make(name)->bundleAdjust(s.problem, BAOptions{});
     ASSERT_TRUE(r.success) << r.message;
     int injected = 0, caught = 0, false_pos = 0;
     for (size_t i = 0; i < s.is_outlier.size(); i++) {
@@ -323,9 +394,9 @@ TEST(Backends, CeresRejectsGrossOutliers) {
     EXPECT_LT(d.max_t, 4e-3) << "stereo=" << stereo;
     EXPECT_LT(d.max_r_deg, 0.03) << "stereo=" << stereo;
     EXPECT_LT(err.max_t, 1.2 * clean_err.max_t + 1e-3) << "stereo=" << stereo;
-    std::printf("%s, 5%% outliers: %d injected, %d caught, %d inliers flagged; pose diff to the clean run %.2g m "
+    std::printf("%s %s, 5%% outliers: %d injected, %d caught, %d inliers flagged; pose diff to the clean run %.2g m "
                 "%.2g deg; max error to truth %.2g m (clean run %.2g m)\n",
-                stereo ? "stereo" : "mono", injected, caught, false_pos, d.max_t, d.max_r_deg, err.max_t,
+                name, stereo ? "stereo" : "mono", injected, caught, false_pos, d.max_t, d.max_r_deg, err.max_t,
                 clean_err.max_t);
   }
 }
@@ -347,7 +418,7 @@ TEST(Backends, OutliersHurtWithoutRejection) {
 }
 
 TEST(Backends, FixedKeyframesAndPointsStayBitIdentical) {
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     SynthBAConfig c;
     c.fixed_keyframes = 3;
     c.fixed_points = 50;
@@ -381,7 +452,7 @@ TEST(Backends, FixedKeyframesAndPointsStayBitIdentical) {
 // No fixed keyframe at all: every keyframe is optimised (MRPT gets a dummy
 // fixed frame); the cost still drops to the noise floor.
 TEST(Backends, NoFixedKeyframe) {
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     SynthBAConfig c;
     c.fixed_keyframes = 0;
     c.stereo = true;
@@ -397,7 +468,7 @@ TEST(Backends, NoFixedKeyframe) {
 }
 
 TEST(Backends, ObservationsFlaggedOnInputAreIgnored) {
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     SynthBAConfig c;
     c.outlier_ratio = 0.05;
     auto s = makeBA(c);
@@ -473,7 +544,7 @@ TEST(Backends, AbortFlagOrPassedDeadlineStopsTheOptimisationEarly) {
   c.stereo = true;
   c.fixed_keyframes = 1;
   c.pixel_sigma = 1;
-  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend"}) {
+  for (const char* name : {"dslam::CeresBackend", "dslam::MrptBackend", "dslam::SchurBackend"}) {
     SCOPED_TRACE(name);
     auto plain = makeBA(c), full = plain;
     const BAResult rp = make(name)->bundleAdjust(plain.problem, BAOptions{});  // ORB-SLAM scheme: 2 passes
@@ -499,7 +570,7 @@ TEST(Backends, AbortFlagOrPassedDeadlineStopsTheOptimisationEarly) {
       ASSERT_TRUE(ra.success) << ra.message;
       EXPECT_TRUE(ra.aborted);
       EXPECT_LT(ra.iterations, rf.iterations);
-      if (std::string(name) == "dslam::CeresBackend") {
+      if (std::string(name) != "dslam::MrptBackend") {
         EXPECT_LE(ra.iterations, 1);  // stops after its first iteration
       }
       EXPECT_LT(ra.final_cost, ra.initial_cost);  // what it did is kept, and is an improvement
