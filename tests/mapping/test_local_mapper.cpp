@@ -239,7 +239,7 @@ InactiveRun runWithInactivePoints(bool fixed) {
   track(kf1.get(), s1, kf0.get(), s0);
   LocalMapperParams p;
   p.ba_inactive_points_fixed = fixed;
-  LocalMapper mapper(p, test::ceresBackend());
+  LocalMapper mapper(p, test::defaultBackend());
   mapper.insertKeyFrame(kf1);
   mapper.processAll();
 

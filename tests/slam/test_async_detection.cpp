@@ -97,7 +97,7 @@ std::unique_ptr<System> probedSystem(const DatasetSource& ds, std::shared_ptr<De
                                      bool carry_by_flow = true) {
   SlamParams sp;
   sp.place.enabled = false;
-  auto sys = std::make_unique<System>(*ds.camera(), sp, test::ceresBackend(), config::Mode::Parallel);
+  auto sys = std::make_unique<System>(*ds.camera(), sp, test::defaultBackend(), config::Mode::Parallel);
   sys->addDetector("gated", std::move(det), 1, mode, carry_by_flow);
   sys->addClassifier("probe", std::move(probe), "gated");
   return sys;

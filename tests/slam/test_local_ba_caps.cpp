@@ -21,7 +21,7 @@ struct Seen {
 
 Seen runWithCaps(const std::string& dir, int max_kf, int max_fixed) {
   auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
-  auto backend = test::ceresBackend();
+  auto backend = test::defaultBackend();
   SlamParams sp;
   sp.mapper.ba_max_keyframes = max_kf;
   sp.mapper.ba_max_fixed_keyframes = max_fixed;

@@ -44,7 +44,7 @@ struct RunOut {
 
 RunOut run(DatasetSource& ds, const SlamParams& sp, const std::function<void(SensorFrame&)>& mutate = nullptr,
         const std::string& save = "", const std::string& load = "") {
-  System sys(*ds.camera(), sp, test::ceresBackend());
+  System sys(*ds.camera(), sp, test::defaultBackend());
   RunOut r;
   sys.setEventSink([&r](const std::string& e) { r.events.push_back(nlohmann::json::parse(e)); });
   if (!load.empty()) sys.loadMaps(load);
@@ -152,7 +152,7 @@ TEST(LoopClosing, CorruptOrForeignAtlasFilesAreRefused) {
   SlamParams sp;
   sp.loop.enabled = false;
   {
-    System sys(*ds->camera(), sp, test::ceresBackend());
+    System sys(*ds->camera(), sp, test::defaultBackend());
     for (size_t i = 0; i < 40; i++) sys.track(ds->read(i));
     sys.shutdown();
     sys.mapManager().save(good);

@@ -30,7 +30,7 @@ struct RunResult {
 /** Runs the System over a dataset; `mutate` may alter frames (bad-input tests). */
 RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
                     const std::function<void(SensorFrame&)>& mutate = nullptr) {
-  System sys(*ds.camera(), sp, test::ceresBackend());
+  System sys(*ds.camera(), sp, test::defaultBackend());
   RunResult r;
   for (size_t i = 0; i < ds.size(); i++) {
     SensorFrame f = ds.read(i);
@@ -88,7 +88,7 @@ TEST(SlamE2E, BadFramesAreLostNotFatal) {
   auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   // Frames 60-64: all-zero depth; 65-69: black image; 70-74: no depth at all.
   std::vector<int> state(ds->size(), -1);
-  System sys(*ds->camera(), SlamParams{}, test::ceresBackend());
+  System sys(*ds->camera(), SlamParams{}, test::defaultBackend());
   for (size_t i = 0; i < ds->size(); i++) {
     SensorFrame f = ds->read(i);
     if (i >= 60 && i < 65) f.depth.setTo(0);

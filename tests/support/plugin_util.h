@@ -20,10 +20,10 @@ inline std::shared_ptr<DatasetSource> openDataset(const std::string& type, const
   return ds;
 }
 
-/** dslam::CeresBackend with its default parameters. */
-inline std::shared_ptr<Backend> ceresBackend() {
+/** The default backend of the shipped pipelines (dslam::SchurBackend), default parameters. */
+inline std::shared_ptr<Backend> defaultBackend() {
   register_builtin_plugins();
-  auto b = create<Backend>("dslam::CeresBackend");
+  auto b = create<Backend>("dslam::SchurBackend");
   b->configure(Params::resolve(b->paramSpecs(), ""), PluginContext{});
   return b;
 }

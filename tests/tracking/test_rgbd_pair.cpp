@@ -38,7 +38,7 @@ TEST(RgbdPair, TrackerAgreesWithPnpRansacOnTheSameMatches) {
   cam.depth_factor = 5000;
   SlamParams sp;
   sp.tracker.init_min_points = 300;
-  System sys(cam, sp, test::ceresBackend());
+  System sys(cam, sp, test::defaultBackend());
   const auto r1 = sys.track(load(dir, 1, 0.0, 5000));
   ASSERT_TRUE(r1.track.initialized);
   const auto r2 = sys.track(load(dir, 2, 1.0 / 30, 5000));

@@ -456,7 +456,7 @@ std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const Came
   for (const auto* m : pc.modulesOf("Backend"))
     if (!backend) backend = std::dynamic_pointer_cast<Backend>(makeModule(*m, base));
   if (!backend) {
-    backend = create<Backend>("dslam::CeresBackend");
+    backend = create<Backend>("dslam::SchurBackend");
     backend->configure(Params::resolve(backend->paramSpecs(), ""), base);
   }
   // Map managers chain in the order listed: a filter (persistence filters)

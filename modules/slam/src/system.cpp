@@ -158,7 +158,7 @@ void computeFrameBow(const KeyFrameDatabase& db, const TrackedFrame& f, BowVecto
 System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<Backend> backend, config::Mode mode,
                std::shared_ptr<MapManager> maps)
     : mode_(mode), p_(p), backend_(std::move(backend)), maps_(std::move(maps)) {
-  if (!backend_) throw ConfigError("System needs a Backend (e.g. dslam::CeresBackend)");
+  if (!backend_) throw ConfigError("System needs a Backend (e.g. dslam::SchurBackend)");
   if (camera.sensor == SensorType::Monocular)
     throw ConfigError("monocular SLAM is not implemented yet: use an RGB-D or stereo camera");
   frontend_ = std::make_unique<FeatureFrontend>(camera, p_.frontend);

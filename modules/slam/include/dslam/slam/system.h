@@ -164,7 +164,7 @@ class System {
 };
 
 /** Builds the System a pipeline describes: its backend (default
- *  dslam::CeresBackend), map manager, detectors and classifier chain (file
+ * *dslam::SchurBackend), map manager, detectors and classifier chain (file
  *  order), for `camera`. This is what `dslam run` does before its frame loop;
  *  programs that produce their own frames call it and then System::track().
  *  `ctx` is passed to every plug-in's configure() (config_dir defaults to
