@@ -176,6 +176,47 @@ TEST(DepthRepopulation, SeeThroughObjectIsNoOccluder) {
   EXPECT_TRUE(rep->lastStats()[0].occluded);
 }
 
+// A desk seen from standing height: its top is a band across the box (a
+// under half of its height, 2.7-3.0 m), the legs are thin, the wall under it is
+// at 4.3 m, so the box centre is deeper than the front. The near layer spans
+// the width but not the height: for a table (see_through_classes) that is
+// the table seen through, not an occluder; for a class outside the list (or
+// with the default see_through_classes: []) the same depths are an occluder.
+TEST(DepthRepopulation, TableTopAcrossTheBoxIsNoOccluderForSeeThroughClasses) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.3f));
+  for (int y = 150; y < 250; y++) depth(cv::Rect(200, y, 240, 1)).setTo(2.7f + 0.003f * (y - 150));  // top
+  depth(cv::Rect(204, 250, 2, 100)).setTo(2.75f);  // front legs, 2 px wide: under 2 % of the near layer's samples
+  depth(cv::Rect(432, 250, 2, 100)).setTo(2.75f);
+  Detections d;
+  d.boxes = {box(200, 150, 240, 230, 67)};
+  const std::vector<cv::Point2f> pts = {{300, 170}, {400, 230}, {320, 300}, {260, 360}};  // top, top, wall, wall
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", "see_through_classes: [67]");
+  Frame f = depthFrame(depth, pts);
+  rep->classify(f, d, {});
+  ASSERT_EQ(rep->lastStats().size(), 1u);
+  const BoxDepthStats& st = rep->lastStats()[0];
+  EXPECT_GT(st.center_depth, st.object_depth + st.margin);
+  EXPECT_GT(st.near_span_x, 0.9f);
+  EXPECT_LT(st.near_span_y, 0.5f);
+  EXPECT_FALSE(st.occluded);
+  for (int i : {0, 1}) {
+    EXPECT_EQ(f.meta[i].label, KpLabel::Movable) << i;
+    EXPECT_EQ(f.meta[i].class_id, 67) << i;
+  }
+  for (int i : {2, 3}) EXPECT_EQ(f.meta[i].reason, KpReason::BoxBackground) << i;
+
+  Detections other = d;
+  other.boxes[0].class_id = 63;  // couch: needs width and height
+  Frame g = depthFrame(depth, pts);
+  rep->classify(g, other, {});
+  EXPECT_TRUE(rep->lastStats()[0].occluded);
+  auto strict = makeClassifier<DepthRepopulation>("DepthRepopulation");
+  Frame h = depthFrame(depth, pts);
+  strict->classify(h, d, {});
+  EXPECT_TRUE(strict->lastStats()[0].occluded);
+  EXPECT_EQ(h.countLabel(KpLabel::Dynamic), 4u);
+}
+
 // An unlabelled box at 1.5 m covers the left 40 % of a table's box (table at
 // 3 m): the near layer does not span the box, the occluder is still caught.
 TEST(DepthRepopulation, UnlabelledThingInFrontOfPartOfABoxIsStillAnOccluder) {

@@ -5,6 +5,7 @@
 
 #include "common.h"
 #include "dslam/core/error.h"
+#include "dslam/core/log.h"
 
 IMPLEMENTS_MRPT_OBJECT(DepthRepopulation, KeypointClassifier, dslam)
 
@@ -41,6 +42,11 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
                "tables); an unlabelled thing in front covers part of the box (chosen; 0 = off, every deep centre "
                "is an occluder)",
                0, 1),
+      P_list("see_through_classes", ParamType::IntList, "[]",
+             "classes seen through under their top (tables: [67], COCO dining table): their near layer need only "
+             "span occlusion_span of the box width, the top being a band across the box and the legs too thin to "
+             "count ([] = off, every class needs width and height; [67] measured in docs/classifiers.md, not the "
+             "default)"),
       P_double("overlap_dilation", 0.1,
                "other boxes are widened by this fraction of their width / height on each side before their overlap "
                "is left out (box jitter of real detectors; chosen, 0 = the boxes as detected)",
@@ -64,6 +70,7 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   occlusion_span_ = p.getDouble("occlusion_span");
+  see_through_classes_ = cls::cocoIdList(p, "see_through_classes");
   overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
   const std::string oc = p.getString("occlusion_check");
@@ -284,9 +291,16 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
       // The near layer across the whole box is the object, seen through.
       nearLayerSpan(frame, box, shared, stride_, st.object_depth + st.margin, xs_, ys_, st.near_span_x,
                     st.near_span_y);
-      if (st.near_span_x >= occlusion_span_ && st.near_span_y >= occlusion_span_) st.occluded = false;
+      const bool table = cls::contains(see_through_classes_, bb.class_id);
+      if (st.near_span_x >= occlusion_span_ && (table || st.near_span_y >= occlusion_span_)) st.occluded = false;
     }
     stats_.push_back(st);
+    DSLAM_LOG(Trace, "DepthRepopulation frame " << frame.index() << " box class " << bb.class_id << " ["
+                                                 << box.x << ", " << box.y << ", " << box.width << " x " << box.height
+                                                 << "]: object depth " << st.object_depth << " m, centre "
+                                                 << st.center_depth << " m (std " << st.center_std
+                                                 << "), near layer " << st.near_span_x << " x " << st.near_span_y
+                                                 << (st.occluded ? ": occluded" : ""));
 
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;

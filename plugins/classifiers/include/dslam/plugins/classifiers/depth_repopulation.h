@@ -41,7 +41,9 @@ struct BoxDepthStats {
  *  layer (depths within the margin of the object depth) spans the box
  *  (`occlusion_span` of its width and of its height): then the nearest
  *  surface is the detected object itself, one that is seen through (a
- *  chair, a table), not something in front of it. The test applies to every
+ *  chair, a table), not something in front of it; for `see_through_classes`
+ *  (off by default; tables: [67]) spanning the width is enough: the top is a
+ *  band across the box, the legs too thin to count. The test applies to every
  *  box by default; `occlusion_check: dynamic` limits it to boxes of
  *  `dynamic_classes`.
  *
@@ -61,7 +63,7 @@ class DepthRepopulation : public KeypointClassifier {
   const std::vector<BoxDepthStats>& lastStats() const { return stats_; }
 
  private:
-  std::vector<int> classes_, dynamic_classes_{1};
+  std::vector<int> classes_, dynamic_classes_{1}, see_through_classes_;
   double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3, occlusion_span_ = 0.8,
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
