@@ -45,20 +45,6 @@ test::SynthBAConfig small() {  // 10 KF, 1000 points, monocular
   return {};
 }
 
-// ~ORB-SLAM2 RGB-D local BA: 20 KF (2 fixed) along 12 m, 3000 points (each
-// keyframe sees ~1/3 of them), stereo residuals, 4 pyramid levels, 2 % outliers.
-test::SynthBAConfig localBA() {
-  test::SynthBAConfig c;
-  c.keyframes = 20;
-  c.points = 3000;
-  c.path_length = 12;
-  c.stereo = true;
-  c.levels = 4;
-  c.fixed_keyframes = 2;
-  c.outlier_ratio = 0.02;
-  return c;
-}
-
 BAOptions orbslam() { return BAOptions{}; }  // Huber + outlier rejection, 5 + 10 iterations
 
 BAOptions leastSquares() {
@@ -98,17 +84,17 @@ BENCHMARK_CAPTURE(runBA, Ceres_10kf_1000pt_mono_lsq10, "dslam::CeresBackend", sm
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(runBA, Mrpt_10kf_1000pt_mono_lsq10, "dslam::MrptBackend", small(), leastSquares())
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam, "dslam::CeresBackend", localBA(), orbslam())
+BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam, "dslam::CeresBackend", test::localBAConfig(), orbslam())
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(runBA, Schur_20kf_3000pt_stereo_orbslam, "dslam::SchurBackend", localBA(), orbslam())
+BENCHMARK_CAPTURE(runBA, Schur_20kf_3000pt_stereo_orbslam, "dslam::SchurBackend", test::localBAConfig(), orbslam())
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam_sparse, "dslam::CeresBackend", localBA(), orbslam(),
+BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam_sparse, "dslam::CeresBackend", test::localBAConfig(), orbslam(),
                   "linear_solver: sparse_schur")
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam_2threads, "dslam::CeresBackend", localBA(), orbslam(),
+BENCHMARK_CAPTURE(runBA, Ceres_20kf_3000pt_stereo_orbslam_2threads, "dslam::CeresBackend", test::localBAConfig(), orbslam(),
                   "num_threads: 2")
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(runBA, Mrpt_20kf_3000pt_stereo_orbslam, "dslam::MrptBackend", localBA(), orbslam())
+BENCHMARK_CAPTURE(runBA, Mrpt_20kf_3000pt_stereo_orbslam, "dslam::MrptBackend", test::localBAConfig(), orbslam())
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2);
 BENCHMARK_CAPTURE(runPG, Ceres, "dslam::CeresBackend")->Arg(30)->Arg(300)->Unit(benchmark::kMillisecond);

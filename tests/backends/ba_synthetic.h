@@ -25,6 +25,21 @@ struct SynthBAConfig {
   unsigned seed = 1;
 };
 
+/** ~ORB-SLAM2 RGB-D local BA: 20 keyframes (2 fixed) along 12 m, 3000
+ *  points (each keyframe sees about a third of them), stereo residuals, 4
+ *  pyramid levels, 2 % gross outliers (bench_backends and the backend tests). */
+inline SynthBAConfig localBAConfig() {
+  SynthBAConfig c;
+  c.keyframes = 20;
+  c.points = 3000;
+  c.path_length = 12;
+  c.stereo = true;
+  c.levels = 4;
+  c.fixed_keyframes = 2;
+  c.outlier_ratio = 0.02;
+  return c;
+}
+
 struct SynthBA {
   BAProblem problem;                ///< perturbed initial estimates, noisy observations
   std::vector<SE3> true_T_cw;
