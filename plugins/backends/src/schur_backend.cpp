@@ -31,6 +31,7 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;  // Ceres' LM bounds of the damping diagonal
 constexpr double kGradientTolerance = 1e-10, kParameterTolerance = 1e-8;  // Ceres' defaults
+constexpr double kMinLambda = 1e-32, kMaxLambda = 1e32;  // 1 / Ceres' max and min trust region radius
 
 double huberCost(double s, double a) { return s <= a * a ? s : 2 * a * std::sqrt(s) - a * a; }
 
@@ -90,6 +91,13 @@ class SchurSolver {
     double lambda = s_.initial_lambda, nu = 2;
     int accepted = 0, rejected = 0;
     const char* stop = "NO_CONVERGENCE";
+    // A step not taken: more damping; false once the damping is useless.
+    auto reject = [&] {
+      rejected++;
+      lambda *= nu;
+      nu *= 2;
+      return lambda <= kMaxLambda;
+    };
     for (int it = 0; it < iterations; it++) {
       if (backends::abortRequested(opt_)) {
         stop = "ABORTED";
@@ -102,10 +110,7 @@ class SchurSolver {
       (*done)++;
       double predicted = 0;
       if (!solve(lambda, &predicted) || !(predicted > 0)) {
-        rejected++;
-        lambda *= nu;
-        nu *= 2;
-        if (lambda > 1e32) {
+        if (!reject()) {
           stop = "DAMPING_LIMIT";
           break;
         }
@@ -123,7 +128,7 @@ class SchurSolver {
         accepted++;
         const double rel = (cost - new_cost) / std::max(cost, 1e-300);
         lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2 * ratio - 1, 3));
-        lambda = std::max(lambda, 1e-32);
+        lambda = std::max(lambda, kMinLambda);
         nu = 2;
         cost = linearize();
         if (rel < s_.function_tolerance) {
@@ -132,9 +137,10 @@ class SchurSolver {
         }
       } else {
         restoreState();
-        rejected++;
-        lambda *= nu;
-        nu *= 2;
+        if (!reject()) {
+          stop = "DAMPING_LIMIT";
+          break;
+        }
       }
     }
     std::ostringstream m;
