@@ -4,7 +4,7 @@
 
 namespace dslam {
 
-static double huber(double s, double d) { return s <= d * d ? s : 2 * d * std::sqrt(s) - d * d; }
+double huberCost(double s, double d) { return s <= d * d ? s : 2 * d * std::sqrt(s) - d * d; }
 
 double evaluateCost(const BAProblem& p, const BAOptions& opt) {
   double cost = 0;
@@ -22,7 +22,7 @@ double evaluateCost(const BAProblem& p, const BAOptions& opt) {
       s += (ur - o.u_right) * (ur - o.u_right);
     }
     s *= o.information;
-    cost += opt.robust ? huber(s, stereo ? opt.huber_stereo : opt.huber_mono) : s;
+    cost += opt.robust ? huberCost(s, stereo ? opt.huber_stereo : opt.huber_mono) : s;
   }
   return cost;
 }

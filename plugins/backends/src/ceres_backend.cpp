@@ -99,12 +99,7 @@ class SE3LeftManifold final : public ceres::Manifold {
 template <int N>
 class ReprojectionCost final : public ceres::SizedCostFunction<N, kPoseSize, 3> {
  public:
-  ReprojectionCost(const BACamera& cam, const BAObservation& o)
-      : fx_(cam.fx), fy_(cam.fy), cx_(cam.cx), cy_(cam.cy), bf_(cam.bf), w_(std::sqrt(o.information)) {
-    obs_[0] = o.uv.x();
-    obs_[1] = o.uv.y();
-    obs_[2] = o.u_right;
-  }
+  ReprojectionCost(const BACamera& cam, const BAObservation& o) : cam_(cam), obs_(o) {}
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     const double* p = params[0];
@@ -112,21 +107,9 @@ class ReprojectionCost final : public ceres::SizedCostFunction<N, kPoseSize, 3> 
     const Eigen::Map<const Eigen::Vector3d> t(p + 4);
     const Eigen::Map<const Eigen::Vector3d> X(params[1]);
     const Eigen::Vector3d Xc = q * X + t;
-    double z = Xc.z();
-    if (std::abs(z) < 1e-12) z = z < 0 ? -1e-12 : 1e-12;  // keep finite; such points fail the depth test
-    const double iz = 1.0 / z, iz2 = iz * iz;
-    const double u = fx_ * Xc.x() * iz + cx_, v = fy_ * Xc.y() * iz + cy_;
-    residuals[0] = w_ * (u - obs_[0]);
-    residuals[1] = w_ * (v - obs_[1]);
-    if constexpr (N == 3) residuals[2] = w_ * (u - bf_ * iz - obs_[2]);
+    Eigen::Matrix<double, N, 3> Jc;  // d(residual)/d(Xc)
+    backends::reprojectionResidual<N>(cam_, obs_, Xc, residuals, jacobians ? &Jc : nullptr);
     if (!jacobians) return true;
-
-    // d(residual)/d(Xc)
-    Eigen::Matrix<double, N, 3> Jc;
-    Jc.row(0) << fx_ * iz, 0, -fx_ * Xc.x() * iz2;
-    Jc.row(1) << 0, fy_ * iz, -fy_ * Xc.y() * iz2;
-    if constexpr (N == 3) Jc.row(2) << fx_ * iz, 0, -fx_ * Xc.x() * iz2 + bf_ * iz2;
-    Jc *= w_;
     if (jacobians[0]) {
       // Xc(delta) = exp(delta) Xc ~ Xc + rho + phi x Xc  ->  [I, -[Xc]x]
       Eigen::Map<Eigen::Matrix<double, N, kPoseSize, Eigen::RowMajor>> Jp(jacobians[0]);
@@ -142,8 +125,8 @@ class ReprojectionCost final : public ceres::SizedCostFunction<N, kPoseSize, 3> 
   }
 
  private:
-  double fx_, fy_, cx_, cy_, bf_, w_;
-  double obs_[3];
+  BACamera cam_;
+  BAObservation obs_;
 };
 
 // ---- pose graph --------------------------------------------------------

@@ -1,7 +1,10 @@
 #pragma once
 // Helpers shared by the backends (internal to plugins/backends).
+#include <cmath>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "dslam/core/backend.h"
 #include "dslam/core/timing.h"
@@ -43,6 +46,28 @@ double observationChi2(const BAProblem& p, const BAObservation& o, bool* depth_o
  *  with chi2 above the threshold of its kind or with the point behind the
  *  camera. Returns the number of observations newly flagged. */
 int markOutliers(BAProblem& p, const CommonSettings& s);
+
+/** Reprojection residual of observation `o` of the camera-frame point `Xc`,
+ *  weighted by sqrt(information) (backend.h), into r[0..N): [u, v] for N =
+ *  2, [u, v, u_right] for N = 3; with `Jc`, d(r)/d(Xc). The pose and point Jacobians
+ *  follow from Jc: [Jc, -Jc [Xc]x] for T <- exp(delta) T, and Jc R. */
+template <int N>
+void reprojectionResidual(const BACamera& cam, const BAObservation& o, const Eigen::Vector3d& Xc, double* r,
+                          Eigen::Matrix<double, N, 3>* Jc) {
+  double z = Xc.z();
+  if (std::abs(z) < 1e-12) z = z < 0 ? -1e-12 : 1e-12;  // keep finite; such points fail the depth test
+  const double iz = 1.0 / z, iz2 = iz * iz;
+  const double w = std::sqrt(o.information);
+  const double u = cam.fx * Xc.x() * iz + cam.cx, v = cam.fy * Xc.y() * iz + cam.cy;
+  r[0] = w * (u - o.uv.x());
+  r[1] = w * (v - o.uv.y());
+  if constexpr (N == 3) r[2] = w * (u - cam.bf * iz - o.u_right);
+  if (!Jc) return;
+  Jc->row(0) << cam.fx * iz, 0, -cam.fx * Xc.x() * iz2;
+  Jc->row(1) << 0, cam.fy * iz, -cam.fy * Xc.y() * iz2;
+  if constexpr (N == 3) Jc->row(2) << cam.fx * iz, 0, -cam.fx * Xc.x() * iz2 + cam.bf * iz2;
+  *Jc *= w;
+}
 
 /** BAOptions::abort is set, or BAOptions::deadline has passed. */
 inline bool abortRequested(const BAOptions& o) {

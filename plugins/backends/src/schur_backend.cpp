@@ -33,8 +33,6 @@ constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;  // Ceres' LM bounds 
 constexpr double kGradientTolerance = 1e-10, kParameterTolerance = 1e-8;  // Ceres' defaults
 constexpr double kMinLambda = 1e-32, kMaxLambda = 1e32;  // 1 / Ceres' max and min trust region radius
 
-double huberCost(double s, double a) { return s <= a * a ? s : 2 * a * std::sqrt(s) - a * a; }
-
 /** One optimisation pass of Levenberg-Marquardt with the points eliminated
  *  (Schur complement); the state lives in `problem`. */
 class SchurSolver {
@@ -156,29 +154,15 @@ class SchurSolver {
   template <int N>
   double residual(const BAObservation& o, Eigen::Matrix<double, N, 1>& r, Eigen::Matrix<double, N, 6>* Jp,
                   Eigen::Matrix<double, N, 3>* Jx) const {
-    const auto& cam = p_.camera;
     const SE3& T = p_.keyframes[o.kf].T_cw;
     const Eigen::Vector3d Xc = T * p_.points[o.pt].X_w;
-    double z = Xc.z();
-    if (std::abs(z) < 1e-12) z = z < 0 ? -1e-12 : 1e-12;  // keep finite; such points fail the depth test
-    const double iz = 1.0 / z, iz2 = iz * iz;
-    const double w = std::sqrt(o.information);
-    const double u = cam.fx * Xc.x() * iz + cam.cx, v = cam.fy * Xc.y() * iz + cam.cy;
-    r(0) = w * (u - o.uv.x());
-    r(1) = w * (v - o.uv.y());
-    if constexpr (N == 3) r(2) = w * (u - cam.bf * iz - o.u_right);
-    if (Jp || Jx) {
-      Eigen::Matrix<double, N, 3> Jc;
-      Jc.row(0) << cam.fx * iz, 0, -cam.fx * Xc.x() * iz2;
-      Jc.row(1) << 0, cam.fy * iz, -cam.fy * Xc.y() * iz2;
-      if constexpr (N == 3) Jc.row(2) << cam.fx * iz, 0, -cam.fx * Xc.x() * iz2 + cam.bf * iz2;
-      Jc *= w;
-      if (Jp) {
-        Jp->template leftCols<3>() = Jc;
-        Jp->template rightCols<3>() = -Jc * SE3::skew(Xc);
-      }
-      if (Jx) *Jx = Jc * T.rotation();
+    Eigen::Matrix<double, N, 3> Jc;
+    backends::reprojectionResidual<N>(p_.camera, o, Xc, r.data(), Jp || Jx ? &Jc : nullptr);
+    if (Jp) {
+      Jp->template leftCols<3>() = Jc;
+      Jp->template rightCols<3>() = -Jc * SE3::skew(Xc);
     }
+    if (Jx) *Jx = Jc * T.rotation();
     return r.squaredNorm();
   }
 

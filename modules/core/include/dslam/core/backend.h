@@ -126,6 +126,9 @@ class Backend : public Plugin {
   virtual PoseGraphResult optimizePoseGraph(PoseGraph& graph, const PoseGraphOptions& opt) = 0;
 };
 
+/** rho(s) of the cost convention above: the Huber kernel on the squared
+ *  norm s with threshold d. */
+double huberCost(double s, double d);
 /** Cost of a BA problem under the convention above (outlier-flagged
  *  observations excluded). */
 double evaluateCost(const BAProblem& p, const BAOptions& opt);
