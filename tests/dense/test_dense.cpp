@@ -15,6 +15,7 @@
 #include "dslam/dense/dense_map.h"
 #include "dslam/synth/renderer.h"
 #include "dslam/synth/scene.h"
+#include "ray_update.h"
 #include "test_support.h"
 
 using namespace dslam;
@@ -187,6 +188,50 @@ TEST(DenseDepth, StereoDepthOfAKnownDisparity) {
   EXPECT_NEAR(v[v.size() / 2], bf / 8, 0.01 * bf / 8);
   EXPECT_NEAR(v[v.size() / 20], bf / 8, 0.03 * bf / 8);
   EXPECT_NEAR(v[v.size() * 19 / 20], bf / 8, 0.03 * bf / 8);
+}
+
+// The map integration's ray update (ray_update.h: a bit cube instead of
+// OctoMap's hash sets) gives exactly OctoMap's computeDiscreteUpdate() sets:
+// random clouds around random sensor positions, points beyond max_range (rays
+// cut, clearing only) and behind the sensor, with the cube (5 cm voxels, 4 m)
+// and with the hash-set fallback (1 cm voxels, 5 m: the cube would be 128 MB).
+TEST(DenseIntegration, RayUpdateEqualsOctoMapsDiscreteUpdate) {
+  auto keys = [](const auto& c) {
+    std::set<std::tuple<int, int, int>> s;
+    for (const octomap::OcTreeKey& k : c) s.emplace(k[0], k[1], k[2]);
+    return s;
+  };
+  for (const auto& [res, range, cube] : {std::tuple{0.05, 4.0, true}, std::tuple{0.01, 5.0, false}}) {
+    const octomap::OcTree tree(res);
+    const int half = static_cast<int>(std::ceil(range / res)) + 2;
+    VoxelKeySet seen(half), occupied(half);
+    EXPECT_EQ(seen.usesCube(), cube);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-1.f, 1.f);
+    size_t total_free = 0, total_occupied = 0;
+    const int points = cube ? 3000 : 500;  // 1 cm rays are 500 voxels long
+    for (int trial = 0; trial < 3; trial++) {
+      const octomap::point3d origin(3 * u(rng), 3 * u(rng), u(rng));
+      octomap::Pointcloud cloud;
+      for (int i = 0; i < points; i++) {
+        // a noisy wall 1-7 m in front (part of it beyond max_range), and a few points behind
+        const float depth = i % 10 == 0 ? -2.f : 4.f + 3.f * u(rng);
+        cloud.push_back(origin.x() + 2 * u(rng), origin.y() + depth, origin.z() + 1.5f * u(rng));
+      }
+      octomap::KeySet ref_free, ref_occupied;
+      octomap::OcTree(res).computeDiscreteUpdate(cloud, origin, ref_free, ref_occupied, range);
+      RayUpdate r;
+      discreteRayUpdate(tree, cloud, origin, range, seen, occupied, r);
+      EXPECT_EQ(r.free.size(), keys(r.free).size()) << "each free key once";
+      EXPECT_EQ(r.occupied.size(), keys(r.occupied).size()) << "each occupied key once";
+      EXPECT_EQ(keys(r.free), keys(ref_free)) << "resolution " << res << ", trial " << trial;
+      EXPECT_EQ(keys(r.occupied), keys(ref_occupied)) << "resolution " << res << ", trial " << trial;
+      total_free += r.free.size();
+      total_occupied += r.occupied.size();
+    }
+    EXPECT_GT(total_occupied, 500u);  // the check compares real sets
+    EXPECT_GT(total_free, 10 * total_occupied);
+  }
 }
 
 // An RGB-D keyframe seeing the plane z_c = 2 m, at a pose turning camera z

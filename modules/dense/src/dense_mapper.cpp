@@ -1,5 +1,5 @@
-// DenseMapper: per-keyframe depth + dynamic mask (on a worker thread in
-// parallel mode), OctoMap integration at the final keyframe poses, outputs.
+// DenseMapper: per-keyframe depth + dynamic mask (on a worker thread),
+// OctoMap integration at the final keyframe poses, outputs.
 #include <octomap/OcTree.h>
 
 #include <nlohmann/json.hpp>
@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <future>
 #include <mutex>
 #include <unordered_map>
 
@@ -19,6 +20,7 @@
 #include "dslam/core/timing.h"
 #include "dslam/core/worker.h"
 #include "dslam/dense/dense_map.h"
+#include "ray_update.h"
 #include "dslam/map/map.h"
 
 namespace fs = std::filesystem;
@@ -202,6 +204,20 @@ void DenseMapper::addKeyFrame(const Frame& f, const std::vector<Detections>& det
 
 void DenseMapper::waitIdle() { impl_->worker.waitIdle(); }
 
+namespace {
+
+/** What one keyframe changes in the map: the keys OctoMap's
+ *  insertPointCloud(cloud, origin, max_range, lazy_eval, discretize=true)
+ *  updates as free and as occupied (discreteRayUpdate()), and the colour
+ *  sums of its points per voxel. A pure function of the cloud, its pose and
+ *  the resolution, so it can be computed off the thread that updates the tree. */
+struct KeyframeUpdate {
+  RayUpdate rays;
+  std::vector<std::pair<octomap::OcTreeKey, ColourSum>> colour;
+};
+
+}  // namespace
+
 void DenseMapper::integrate(const std::map<int, SE3>& T_wc_by_frame) {
   waitIdle();
   const double t0 = nowSeconds();
@@ -214,49 +230,76 @@ void DenseMapper::integrate(const std::map<int, SE3>& T_wc_by_frame) {
   poses_.clear();
   stats_.keyframes_integrated = stats_.keyframes_without_pose = 0;
   stats_.points_inserted = stats_.points_masked = 0;
-  std::vector<const KeyframeCloud*> order;
-  for (const auto& kc : kfs_) order.push_back(&kc);
-  std::stable_sort(order.begin(), order.end(),
-                   [](const KeyframeCloud* a, const KeyframeCloud* b) { return a->frame_index < b->frame_index; });
-  const float rmax = static_cast<float>(p_.max_range);
-  for (const KeyframeCloud* kc : order) {
-    const auto it = T_wc_by_frame.find(kc->frame_index);
+  std::vector<std::pair<const KeyframeCloud*, SE3>> order;  // keyframes with a final pose, in frame order
+  for (const auto& kc : kfs_) {
+    const auto it = T_wc_by_frame.find(kc.frame_index);
     if (it == T_wc_by_frame.end()) {
       stats_.keyframes_without_pose++;
       continue;
     }
-    const SE3& T = it->second;
-    poses_[kc->frame_index] = T;
-    const Eigen::Matrix3f R = T.rotation().cast<float>();
-    const Eigen::Vector3f t = T.translation().cast<float>();
+    order.emplace_back(&kc, it->second);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return a.first->frame_index < b.first->frame_index; });
+  const float rmax = static_cast<float>(p_.max_range);
+  // Ray casting only needs the resolution: it runs for the next keyframe on
+  // another thread while this one applies the current keyframe's update, in
+  // frame order. The key sets are those of insertPointCloud(..., discretize)
+  // and every key is updated once per keyframe, so the map is the same as
+  // with insertPointCloud() and does not depend on the threads.
+  const octomap::OcTree scratch(p_.resolution);
+  const int half = static_cast<int>(std::ceil(p_.max_range / p_.resolution)) + 2;
+  VoxelKeySet seen(half), occupied_set(half);
+  auto compute = [&](size_t k) {
+    const KeyframeCloud& kc = *order[k].first;
+    const Eigen::Matrix3f R = order[k].second.rotation().cast<float>();
+    const Eigen::Vector3f t = order[k].second.translation().cast<float>();
+    KeyframeUpdate u;
     octomap::Pointcloud cloud;
-    cloud.reserve(static_cast<size_t>(kc->points));
-    std::vector<std::pair<Eigen::Vector3f, cv::Vec3b>> coloured;
-    for (int i = 0; i < kc->depth.rows; i++) {
-      const float* d = kc->depth.ptr<float>(i);
+    cloud.reserve(static_cast<size_t>(kc.points));
+    std::unordered_map<octomap::OcTreeKey, ColourSum, octomap::OcTreeKey::KeyHash> colour;
+    for (int i = 0; i < kc.depth.rows; i++) {
+      const float* d = kc.depth.ptr<float>(i);
       const cv::Vec2f* r = rays_.ptr<cv::Vec2f>(i);
-      for (int j = 0; j < kc->depth.cols; j++) {
+      for (int j = 0; j < kc.depth.cols; j++) {
         const float z = d[j];
         if (z <= 0) continue;
         const Eigen::Vector3f pw = R * Eigen::Vector3f(r[j][0] * z, r[j][1] * z, z) + t;
         cloud.push_back(pw.x(), pw.y(), pw.z());
-        if (!kc->colour.empty() && z <= rmax) coloured.emplace_back(pw, kc->colour.at<cv::Vec3b>(i, j));
+        if (kc.colour.empty() || z > rmax) continue;
+        octomap::OcTreeKey key;
+        if (!scratch.coordToKeyChecked(octomap::point3d(pw.x(), pw.y(), pw.z()), key)) continue;
+        const cv::Vec3b c = kc.colour.at<cv::Vec3b>(i, j);
+        ColourSum& s = colour[key];
+        s.r += c[0];
+        s.g += c[1];
+        s.b += c[2];
+        s.n++;
       }
     }
-    tree->insertPointCloud(cloud, octomap::point3d(t.x(), t.y(), t.z()), p_.max_range, /*lazy_eval=*/false,
-                           /*discretize=*/true);
-    for (const auto& [pw, c] : coloured) {
-      octomap::OcTreeKey key;
-      if (!tree->coordToKeyChecked(octomap::point3d(pw.x(), pw.y(), pw.z()), key)) continue;
+    discreteRayUpdate(scratch, cloud, octomap::point3d(t.x(), t.y(), t.z()), p_.max_range, seen, occupied_set, u.rays);
+    u.colour.assign(colour.begin(), colour.end());
+    return u;
+  };
+  std::future<KeyframeUpdate> next;
+  if (!order.empty()) next = std::async(std::launch::async, compute, size_t{0});
+  for (size_t k = 0; k < order.size(); k++) {
+    KeyframeUpdate u = next.get();
+    if (k + 1 < order.size()) next = std::async(std::launch::async, compute, k + 1);
+    for (const octomap::OcTreeKey& key : u.rays.free) tree->updateNode(key, false, /*lazy_eval=*/false);
+    for (const octomap::OcTreeKey& key : u.rays.occupied) tree->updateNode(key, true, /*lazy_eval=*/false);
+    for (const auto& [key, c] : u.colour) {
       ColourSum& s = impl_->colour[key];
-      s.r += c[0];
-      s.g += c[1];
-      s.b += c[2];
-      s.n++;
+      s.r += c.r;
+      s.g += c.g;
+      s.b += c.b;
+      s.n += c.n;
     }
+    const KeyframeCloud& kc = *order[k].first;
+    poses_[kc.frame_index] = order[k].second;
     stats_.keyframes_integrated++;
-    stats_.points_inserted += static_cast<size_t>(kc->points);
-    stats_.points_masked += static_cast<size_t>(kc->masked);
+    stats_.points_inserted += static_cast<size_t>(kc.points);
+    stats_.points_masked += static_cast<size_t>(kc.masked);
   }
   impl_->tree = std::move(tree);
   size_t occ = 0;

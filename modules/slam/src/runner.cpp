@@ -185,13 +185,16 @@ std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const R
 }
 
 /** outputs.dense_map: the dense-map stage (docs/dense_map.md), fed with
- *  every keyframe; checks the dataset's first frame for depth or a stereo pair. */
+ *  every keyframe; checks the dataset's first frame for depth or a stereo pair.
+ *  Its per-keyframe work runs on its own thread in both modes: it is a pure
+ *  function of the keyframe and the map is integrated in frame order at the
+ *  end, so sequential runs stay deterministic. */
 std::unique_ptr<dense::DenseMapper> startDenseMap(const config::PipelineConfig& pc, System& sys,
                                                   const CameraModel& cam, DatasetSource& reader, size_t first) {
   if (!pc.outputs.getBool("dense_map")) return nullptr;
   auto d = std::make_unique<dense::DenseMapper>(sys.camera(), cam,
                                                 dense::DenseMapParams::fromParams(pc.sections.at("dense_map")),
-                                                pc.mode == config::Mode::Parallel);
+                                                /*threaded=*/true);
   if (first < reader.size()) {
     SensorFrame f;
     try {
@@ -539,6 +542,7 @@ RunSummary runPipeline(const config::PipelineConfig& pc, const RunOverrides& ov)
   sum.stop_signal = lo.stop_signal;
   sys->shutdown();
   sys->setEventSink(nullptr);
+  if (dense_map) dense_map->waitIdle();  // its per-keyframe work is part of the frames' cost
   sum.wall_s = nowSeconds() - wall0;
 
   const Trajectory traj = writeOutputs(*sys, pc, ov, sum);

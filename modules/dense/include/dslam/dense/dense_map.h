@@ -130,7 +130,8 @@ class DenseMapper {
   /** `camera`: the tracking camera (rectified for stereo: System::camera());
    *  `input_camera`: the camera as configured (tells whether the loaded
    *  colour images are rectified and their channel order). `threaded`: run
-   *  the per-keyframe work on a background thread (parallel mode).
+   *  the per-keyframe work on a background thread (`dslam run` does in both
+   *  modes; the result does not depend on it).
    *  Throws ConfigError when the camera gives neither depth nor a stereo pair. */
   DenseMapper(const CameraModel& camera, const CameraModel& input_camera, const DenseMapParams& p, bool threaded);
   ~DenseMapper();
