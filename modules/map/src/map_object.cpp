@@ -264,27 +264,36 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
   return merges;
 }
 
+ReidAppearance reidAppearance(const MapObject& old) {
+  ReidAppearance app;
+  for (const auto& [id, q] : old.points)
+    if (q && !q->bad) app.points.push_back(q.get());
+  for (size_t j = 0; j < app.points.size(); j++)
+    for (const uint8_t* d : app.points[j]->descriptorViews(6)) {
+      app.rows.push_back(d);
+      app.row_point.push_back(j);
+    }
+  return app;
+}
+
 ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidParams& p) {
+  if (seen.class_id != old.class_id) return ObjectMotion{};
+  return reidentify(seen, old, reidAppearance(old), p);
+}
+
+ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidAppearance& old_appearance,
+                        const ReidParams& p) {
   ObjectMotion m;
   if (seen.class_id != old.class_id || p.min_inliers < 3) return m;
-  std::vector<const MapPoint*> a, b;
+  std::vector<const MapPoint*> a;
   for (const auto& [id, q] : seen.points) {
     if (old.points.count(id)) return m;  // shares points: partial views of one object, not a move
     if (q && !q->bad) a.push_back(q.get());
   }
-  for (const auto& [id, q] : old.points)
-    if (q && !q->bad) b.push_back(q.get());
+  const std::vector<const MapPoint*>& b = old_appearance.points;
+  const std::vector<const uint8_t*>& rows = old_appearance.rows;
+  const std::vector<size_t>& row_point = old_appearance.row_point;
   if (static_cast<int>(a.size()) < p.min_inliers || static_cast<int>(b.size()) < p.min_inliers) return m;
-  // An old point looks like any of its observations (the views before and
-  // after a move differ: distance, side): its distinctive descriptor and up
-  // to 6 observation descriptors, one flat list.
-  std::vector<const uint8_t*> rows;
-  std::vector<size_t> row_point;
-  for (size_t j = 0; j < b.size(); j++)
-    for (const uint8_t* d : b[j]->descriptorViews(6)) {
-      rows.push_back(d);
-      row_point.push_back(j);
-    }
   // Best match of each seen point (distinctive descriptor) among the old
   // points (ratio test against the second best *point*); one seen point per
   // old point (the closest).

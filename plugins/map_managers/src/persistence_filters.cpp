@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <unordered_set>
 
@@ -449,8 +450,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     // Its appearance seen elsewhere, displaced rigidly: it was moved (ours).
     if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
+      std::optional<ReidAppearance> appearance;  // built once, for the first seen object of its class
       for (const MapObject* s : seen_now) {
-        const ObjectMotion mv = reidentify(*s, o, reid_);
+        if (s->class_id != o.class_id) continue;
+        if (!appearance) appearance = reidAppearance(o);
+        const ObjectMotion mv = reidentify(*s, o, *appearance, reid_);
         if (!mv.moved) {
           if (mv.matches > 0)
             DSLAM_LOG(Trace, "objects: keyframe " << kf->id << ": object " << o.id << " not object " << s->id

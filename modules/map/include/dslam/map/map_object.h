@@ -148,6 +148,18 @@ struct ObjectMotion {
   bool moved = false;  ///< min_inliers inliers and shift >= min_shift_m
 };
 
+/** What re-identification compares against in an old object: its usable
+ *  points and, as one flat list, the descriptors each may look like (its
+ *  distinctive descriptor and up to 6 observation descriptors: the views
+ *  before and after a move differ in distance and side). Built once per old
+ *  object and compared with every object a keyframe saw. */
+struct ReidAppearance {
+  std::vector<const MapPoint*> points;
+  std::vector<const uint8_t*> rows;  ///< descriptors (32 bytes each)
+  std::vector<size_t> row_point;     ///< index into points of each row
+};
+ReidAppearance reidAppearance(const MapObject& old);
+
 /** Whether `seen` is `old` moved: descriptor matches between their points
  *  (the distinctive descriptor of each point of `seen` against those of
  *  `old`'s points and of up to 6 of their observations; best under
@@ -155,7 +167,10 @@ struct ObjectMotion {
  *  that one rigid motion explains (RANSAC on 3 matches, deterministic,
  *  Umeyama on the inliers), moving `old`'s centroid by at least
  *  min_shift_m. Objects of different classes, or sharing map points, are
- *  never one moved. */
+ *  never one moved. `old_appearance` is reidAppearance(old); the short form
+ *  builds it. */
+ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidAppearance& old_appearance,
+                        const ReidParams& p);
 ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidParams& p);
 
 }  // namespace dslam
