@@ -7,8 +7,14 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <future>
 #include <mutex>
@@ -47,6 +53,17 @@ std::array<uint8_t, 3> heightColour(double h, double lo, double hi) {
   return {bgr[2], bgr[1], bgr[0]};
 }
 
+/** Raises the calling thread's niceness by `nice` (Linux: setpriority on
+ *  the thread id applies to that thread only); a failure is only logged. */
+void lowerThreadPriority(int nice) {
+  if (nice <= 0) return;
+  const auto tid = static_cast<id_t>(syscall(SYS_gettid));
+  errno = 0;
+  const int now = getpriority(PRIO_PROCESS, tid);
+  if (errno == 0 && setpriority(PRIO_PROCESS, tid, std::min(19, now + nice)) == 0) return;
+  DSLAM_LOG(Debug, "dense map: could not lower the priority of its thread: " << std::strerror(errno));
+}
+
 }  // namespace
 
 struct DenseMapper::Impl {
@@ -56,6 +73,11 @@ struct DenseMapper::Impl {
   };
   explicit Impl(DenseMapper* owner)
       : worker([owner](Job& j) {
+          thread_local bool niced = false;
+          if (!niced) {
+            niced = true;
+            lowerThreadPriority(owner->p_.worker_nice);
+          }
           try {
             KeyframeCloud kc = owner->preprocess(j.f, j.dets);
             owner->store(std::move(kc));

@@ -59,6 +59,11 @@ std::vector<ParamSpec> DenseMapParams::specs() {
             "stereo: half window (px) of the sub-pixel refinement of each SGBM disparity (SAD at the disparity and "
             "its neighbours, V-shaped fit; 0 = keep SGBM's parabola, which pulls towards whole pixels)",
             0, 15),
+      P_int("worker_nice", d.worker_nice,
+            "niceness of the dense map's thread (Linux, 0-19; 0 = as the other threads): when the cores are busy the "
+            "tracking and mapping threads go first and the per-keyframe work (SGBM, mask) catches up in idle time "
+            "and at the end of the run; results do not depend on it",
+            0, 19),
       P_int("view_size", d.view_size, "longest side of the top and side views (px)", 100, 8000),
       P_double("view_clip", d.view_clip,
                "top view: voxels higher than the highest camera plus this are left out (ceilings) (m)", -100, 100),
@@ -91,6 +96,7 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   d.prob_hit = p.getDouble("prob_hit");
   d.prob_miss = p.getDouble("prob_miss");
   d.occupancy_threshold = p.getDouble("occupancy_threshold");
+  d.worker_nice = static_cast<int>(p.getInt("worker_nice"));
   d.num_disparities = static_cast<int>(p.getInt("num_disparities"));
   if (d.num_disparities % 16 != 0)
     throw ConfigError(p.location().str() + ": dense_map.num_disparities: " + std::to_string(d.num_disparities) +

@@ -65,6 +65,8 @@ struct DenseMapParams {
   int block_size = 5;
   int uniqueness = 10;
   int refine_window = 0;  ///< half window of a sub-pixel SAD refinement (0 = SGBM's own)
+  // Thread
+  int worker_nice = 10;  ///< niceness of the dense map's thread (Linux): tracking goes first on busy cores
   // Pictures
   int view_size = 900;           ///< px, longest side of the top / side views
   double view_clip = 0.6;        ///< top view: voxels higher than the highest camera + this are left out (ceiling)
