@@ -2,7 +2,9 @@
 // closing, detectors). Start/stop/drain/pause semantics tested once here.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <future>
 #include <mutex>
 #include <vector>
@@ -89,6 +91,45 @@ TEST(Worker, WaitIdleReturnsOnlyWhenQueueEmptyAndJobDone) {
   EXPECT_EQ(done.load(), 20);
   EXPECT_FALSE(w.busy());
   EXPECT_EQ(w.queued(), 0u);
+}
+
+// Back-pressure: waitQueuedBelow(n) holds the producer while n or more jobs
+// wait, and lets it go as the thread works the queue down.
+TEST(Worker, WaitQueuedBelowHoldsTheProducerUntilTheQueueShrinks) {
+  std::mutex gate_m;
+  std::condition_variable gate_cv;
+  int allowed = 0;  // jobs the handler may finish
+  std::atomic<int> done{0};
+  Worker<int> w([&](int&) {
+    std::unique_lock<std::mutex> lk(gate_m);
+    gate_cv.wait(lk, [&] { return done.load() < allowed; });
+    done++;
+  });
+  auto allow = [&](int n) {
+    {
+      std::lock_guard<std::mutex> lk(gate_m);
+      allowed = n;
+    }
+    gate_cv.notify_all();
+  };
+  w.start();
+  for (int i = 0; i < 5; i++) w.push(i);  // one runs (held at the gate), four wait
+  auto below2 = std::async(std::launch::async, [&] { w.waitQueuedBelow(2); });
+  EXPECT_EQ(below2.wait_for(std::chrono::milliseconds(50)), std::future_status::timeout);
+  allow(2);  // two finish, the third runs: two wait
+  EXPECT_EQ(below2.wait_for(std::chrono::milliseconds(50)), std::future_status::timeout);
+  allow(3);  // one waits
+  EXPECT_EQ(below2.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_LE(w.queued(), 1u);
+  allow(5);
+  w.waitIdle();
+  EXPECT_EQ(done.load(), 5);
+  // Without a thread it drains in the caller.
+  Worker<int> inline_w([&](int&) { done++; });
+  inline_w.push(1);
+  inline_w.push(2);
+  inline_w.waitQueuedBelow(1);
+  EXPECT_EQ(done.load(), 7);
 }
 
 TEST(Worker, PauseHoldsBetweenJobsAndResumeGoesOn) {

@@ -221,7 +221,15 @@ void DenseMapper::addKeyFrame(const Frame& f, const std::vector<Detections>& det
     stats_.keyframes_received++;
   }
   impl_->worker.push(Impl::Job{f, dets});
-  if (!impl_->worker.running()) impl_->worker.drain();
+  if (!impl_->worker.running()) {
+    impl_->worker.drain();
+    return;
+  }
+  if (impl_->worker.queued() <= static_cast<size_t>(p_.max_queued_keyframes)) return;
+  const double t0 = nowSeconds();  // the thread lags: hold the caller (memory of the queued images)
+  impl_->worker.waitQueuedBelow(static_cast<size_t>(p_.max_queued_keyframes) + 1);
+  std::lock_guard<std::mutex> lk(impl_->m);
+  stats_.producer_wait_s += nowSeconds() - t0;
 }
 
 void DenseMapper::waitIdle() { impl_->worker.waitIdle(); }
@@ -454,6 +462,7 @@ void DenseMapper::writeJson(const std::string& path) const {
   j["preprocess_ms_mean"] = s.keyframes_received ? s.preprocess_ms_total / static_cast<double>(s.keyframes_received) : 0.0;
   j["preprocess_ms_max"] = s.preprocess_ms_max;
   j["integrate_s"] = s.integrate_s;
+  j["producer_wait_s"] = s.producer_wait_s;
   json kfs = json::array();
   for (const KeyframeCloud& kc : kfs_) {
     json k;

@@ -64,6 +64,10 @@ std::vector<ParamSpec> DenseMapParams::specs() {
             "tracking and mapping threads go first and the per-keyframe work (SGBM, mask) catches up in idle time "
             "and at the end of the run; results do not depend on it",
             0, 19),
+      P_int("max_queued_keyframes", d.max_queued_keyframes,
+            "keyframes (their images) waiting for the dense map's thread at most; with more the tracking thread "
+            "waits: memory stays bounded when SGBM is slower than the keyframe rate (stereo street scenes)",
+            1, 100000),
       P_int("view_size", d.view_size, "longest side of the top and side views (px)", 100, 8000),
       P_double("view_clip", d.view_clip,
                "top view: voxels higher than the highest camera plus this are left out (ceilings) (m)", -100, 100),
@@ -97,6 +101,7 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   d.prob_miss = p.getDouble("prob_miss");
   d.occupancy_threshold = p.getDouble("occupancy_threshold");
   d.worker_nice = static_cast<int>(p.getInt("worker_nice"));
+  d.max_queued_keyframes = static_cast<int>(p.getInt("max_queued_keyframes"));
   d.num_disparities = static_cast<int>(p.getInt("num_disparities"));
   if (d.num_disparities % 16 != 0)
     throw ConfigError(p.location().str() + ": dense_map.num_disparities: " + std::to_string(d.num_disparities) +

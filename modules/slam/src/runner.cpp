@@ -212,16 +212,16 @@ std::string finishDenseMap(dense::DenseMapper& d, System& sys, const Trajectory&
   d.integrate(dense::keyFramePosesByFrame(*sys.map()));
   d.writeOutputs(out, traj);
   const dense::DenseStats& s = d.stats();
-  char b[400];
+  char b[480];
   std::snprintf(b, sizeof(b),
                 "dense map: %zu occupied voxels (%.0f mm) from %zu of %zu keyframes (%zu without depth, %zu not in "
                 "the final map), %zu points integrated, %zu dropped as dynamic; preprocessing %.1f ms per keyframe "
-                "(max %.1f) off the tracking thread, integration %.2f s; memory: clouds %.1f MB, octree %.1f MB: "
-                "map.bt dense.ply dense_top.png dense_side.png dense.json\n",
+                "(max %.1f) off the tracking thread (which waited %.2f s for it), integration %.2f s; memory: "
+                "clouds %.1f MB, octree %.1f MB: map.bt dense.ply dense_top.png dense_side.png dense.json\n",
                 s.occupied_voxels, d.params().resolution * 1e3, s.keyframes_integrated, s.keyframes_received,
                 s.keyframes_empty_depth, s.keyframes_without_pose, s.points_inserted, s.points_masked,
                 s.keyframes_received ? s.preprocess_ms_total / static_cast<double>(s.keyframes_received) : 0.0,
-                s.preprocess_ms_max, s.integrate_s, static_cast<double>(s.stored_bytes) / 1048576.0,
+                s.preprocess_ms_max, s.producer_wait_s, s.integrate_s, static_cast<double>(s.stored_bytes) / 1048576.0,
                 static_cast<double>(s.octree_bytes) / 1048576.0);
   return b;
 }

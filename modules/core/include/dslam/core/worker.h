@@ -14,7 +14,8 @@
  *    joins it; the destructor calls stop(). A stopped worker can be started
  *    again.
  *  - waitIdle() returns once the queue is empty and no job is running (in the
- *    calling thread through drain() when the thread is not running).
+ *    calling thread through drain() when the thread is not running);
+ *    waitQueuedBelow(n) once fewer than n jobs are queued.
  *  - pause() returns once the thread is between jobs and holds there (the job
  *    running when pause() is called completes; queued jobs wait); resume()
  *    lets it go on. Both are no-ops without a running thread.
@@ -106,6 +107,19 @@ class Worker {
     cv_.wait(lk, [this] { return (queue_.empty() && !busy_) || exited_; });
   }
 
+  /** Returns once fewer than `n` jobs wait in the queue (the running one
+   *  not counted): back-pressure for a producer faster than the thread.
+   *  Without a running thread it drains the queue in the calling thread. A
+   *  paused worker holds the caller until resume(). */
+  void waitQueuedBelow(size_t n) {
+    if (!thread_.joinable()) {
+      drain();
+      return;
+    }
+    std::unique_lock<std::mutex> lk(m_);
+    cv_.wait(lk, [&] { return queue_.size() < n || exited_; });
+  }
+
   void pause() {
     if (!thread_.joinable()) return;
     std::unique_lock<std::mutex> lk(m_);
@@ -145,6 +159,7 @@ class Worker {
       Job job = std::move(queue_.front());
       queue_.pop_front();
       busy_ = true;
+      cv_.notify_all();  // a queue slot is free (waitQueuedBelow)
       lk.unlock();
       handler_(job);
       lk.lock();

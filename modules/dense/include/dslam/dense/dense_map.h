@@ -67,6 +67,7 @@ struct DenseMapParams {
   int refine_window = 0;  ///< half window of a sub-pixel SAD refinement (0 = SGBM's own)
   // Thread
   int worker_nice = 10;  ///< niceness of the dense map's thread (Linux): tracking goes first on busy cores
+  int max_queued_keyframes = 4;  ///< keyframes waiting for that thread at most; more and addKeyFrame() waits
   // Pictures
   int view_size = 900;           ///< px, longest side of the top / side views
   double view_clip = 0.6;        ///< top view: voxels higher than the highest camera + this are left out (ceiling)
@@ -119,6 +120,7 @@ struct DenseStats {
   size_t octree_bytes = 0;   ///< OctoMap memoryUsage()
   double preprocess_ms_total = 0, preprocess_ms_max = 0;
   double integrate_s = 0;    ///< the last integrate()
+  double producer_wait_s = 0;  ///< time addKeyFrame() waited for a queue slot (max_queued_keyframes)
 };
 
 /** A voxel of the map: centre (map frame) and colour (RGB). */
