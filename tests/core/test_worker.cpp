@@ -79,6 +79,23 @@ TEST(Worker, ThreadRunsJobsInOrderAndStopFinishesTheQueue) {
   EXPECT_EQ(r.get().back(), 99);
 }
 
+// start(on_start): the hook runs in the worker's own thread, before its first job.
+TEST(Worker, StartHookRunsInTheWorkerThreadBeforeTheJobs) {
+  Recorder r;
+  std::thread::id hook_thread;
+  Worker<int> w([&](int& j) { r.add(j); });
+  w.push(1);  // queued before start: still after the hook
+  w.start([&] {
+    hook_thread = std::this_thread::get_id();
+    r.add(0);
+  });
+  w.push(2);
+  w.waitIdle();
+  EXPECT_EQ(r.get(), (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(hook_thread, r.last_thread);
+  EXPECT_NE(hook_thread, std::this_thread::get_id());
+}
+
 TEST(Worker, WaitIdleReturnsOnlyWhenQueueEmptyAndJobDone) {
   std::atomic<int> done{0};
   Worker<int> w([&](int&) {

@@ -73,11 +73,6 @@ struct DenseMapper::Impl {
   };
   explicit Impl(DenseMapper* owner)
       : worker([owner](Job& j) {
-          thread_local bool niced = false;
-          if (!niced) {
-            niced = true;
-            lowerThreadPriority(owner->p_.worker_nice);
-          }
           try {
             KeyframeCloud kc = owner->preprocess(j.f, j.dets);
             owner->store(std::move(kc));
@@ -126,7 +121,7 @@ DenseMapper::DenseMapper(const CameraModel& camera, const CameraModel& input_cam
       const cv::Point2f& u = un[static_cast<size_t>(i * ns.width + j)];
       rays_.at<cv::Vec2f>(i, j) = cv::Vec2f(u.x, u.y);
     }
-  if (threaded) impl_->worker.start();
+  if (threaded) impl_->worker.start([nice = p_.worker_nice] { lowerThreadPriority(nice); });
 }
 
 DenseMapper::~DenseMapper() { impl_->worker.stop(); }

@@ -43,8 +43,9 @@ class Worker {
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
-  /** Starts the background thread (no-op when it runs). */
-  void start() {
+  /** Starts the background thread (no-op when it runs). `on_start`, if
+   *  given, runs first in the new thread (its priority, its name). */
+  void start(std::function<void()> on_start = {}) {
     if (thread_.joinable()) return;
     {
       std::lock_guard<std::mutex> lk(m_);
@@ -52,7 +53,10 @@ class Worker {
       exited_ = false;
       pause_req_ = false;
     }
-    thread_ = std::thread([this] { loop(); });
+    thread_ = std::thread([this, on_start = std::move(on_start)] {
+      if (on_start) on_start();
+      loop();
+    });
   }
   bool running() const { return thread_.joinable(); }
 
