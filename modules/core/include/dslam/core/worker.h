@@ -3,13 +3,14 @@
  *  dslam::Worker<Job>: one background thread that takes jobs from a FIFO
  *  queue and hands each to a handler. It is the single implementation of the
  *  queue + condition variable + thread loop used by local mapping, loop
- *  closing and the detector threads.
+ *  closing, the detector threads and the dense map.
  *
  *  Semantics (tested in tests/core/test_worker.cpp):
  *  - push() queues a job and wakes the thread; jobs run in push order, one at
  *    a time, never concurrently with each other.
  *  - Without start() nothing runs in the background: drain() runs every
  *    queued job in the calling thread (sequential mode, deterministic).
+ *    start(on_start) runs on_start in the new thread before any job.
  *  - stop() lets the thread finish every queued job (drain semantics), then
  *    joins it; the destructor calls stop(). A stopped worker can be started
  *    again.
