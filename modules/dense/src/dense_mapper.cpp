@@ -7,14 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <future>
 #include <mutex>
@@ -23,6 +17,7 @@
 #include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
+#include "dslam/core/thread_priority.h"
 #include "dslam/core/timing.h"
 #include "dslam/core/worker.h"
 #include "dslam/dense/dense_map.h"
@@ -51,17 +46,6 @@ std::array<uint8_t, 3> heightColour(double h, double lo, double hi) {
   const double t = hi > lo ? std::clamp((h - lo) / (hi - lo), 0.0, 1.0) : 0.5;
   const cv::Vec3b bgr = lut.at<cv::Vec3b>(static_cast<int>(std::lround(t * 255)));
   return {bgr[2], bgr[1], bgr[0]};
-}
-
-/** Raises the calling thread's niceness by `nice` (Linux: setpriority on
- *  the thread id applies to that thread only); a failure is only logged. */
-void lowerThreadPriority(int nice) {
-  if (nice <= 0) return;
-  const auto tid = static_cast<id_t>(syscall(SYS_gettid));
-  errno = 0;
-  const int now = getpriority(PRIO_PROCESS, tid);
-  if (errno == 0 && setpriority(PRIO_PROCESS, tid, std::min(19, now + nice)) == 0) return;
-  DSLAM_LOG(Debug, "dense map: could not lower the priority of its thread: " << std::strerror(errno));
 }
 
 }  // namespace
@@ -121,7 +105,7 @@ DenseMapper::DenseMapper(const CameraModel& camera, const CameraModel& input_cam
       const cv::Point2f& u = un[static_cast<size_t>(i * ns.width + j)];
       rays_.at<cv::Vec2f>(i, j) = cv::Vec2f(u.x, u.y);
     }
-  if (threaded) impl_->worker.start([nice = p_.worker_nice] { lowerThreadPriority(nice); });
+  if (threaded) impl_->worker.start([nice = p_.worker_nice] { lowerThreadPriority(nice, "dense map"); });
 }
 
 DenseMapper::~DenseMapper() { impl_->worker.stop(); }
