@@ -12,6 +12,8 @@
 #include "dslam/core/detector.h"
 #include "dslam/core/keypoint_classifier.h"
 #include "dslam/core/registry.h"
+#include "dslam/map/map.h"
+#include "dslam/map/map_point.h"
 #include "dslam/slam/system.h"
 #include "plugin_util.h"
 #include "synth_cache.h"
@@ -75,8 +77,35 @@ class BoxProbe : public dslam::KeypointClassifier {
   std::vector<int> ages;
 };
 
+/** Frame 0: nothing. Later frames: a person box over the left half of the
+ *  image. Its second call (frame 1) blocks until the test opens the gate,
+ *  so frames 1.. are given frame 0's empty detection meanwhile. */
+class LeftHalfDetector : public dslam::Detector {
+  DEFINE_MRPT_OBJECT(LeftHalfDetector, dslam_test)
+ public:
+  std::string description() const override { return "test: left half is a person from frame 1 on"; }
+  unsigned outputs() const override { return dslam::kBoxes; }
+  dslam::Detections detect(const dslam::SensorFrame& f) override {
+    std::unique_lock<std::mutex> lk(m);
+    if (calls++ == 1) timed_out |= !cv.wait_for(lk, std::chrono::seconds(30), [this] { return open; });
+    dslam::Detections d;
+    if (f.index > 0) d.boxes.push_back({cv::Rect2f(0, 0, f.image.cols / 2.f, static_cast<float>(f.image.rows)), 1, 0.9f, -1});
+    return d;
+  }
+  void release() {
+    std::lock_guard<std::mutex> lk(m);
+    open = true;
+    cv.notify_all();
+  }
+  std::mutex m;
+  std::condition_variable cv;
+  bool open = false, timed_out = false;
+  int calls = 0;
+};
+
 }  // namespace dslam_test
 
+IMPLEMENTS_MRPT_OBJECT(LeftHalfDetector, dslam::Detector, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(GatedDetector, dslam::Detector, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(Probe, dslam::KeypointClassifier, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(BoxProbe, dslam::KeypointClassifier, dslam_test)
@@ -167,4 +196,66 @@ TEST(AsyncDetection, CarryNoneLeavesOlderDetectionsInPlace) {
     EXPECT_EQ(probe->boxes[k][0], cv::Rect2f(100, 60, 80, 120)) << "frame " << k << ": moved although carry: none";
     EXPECT_EQ(probe->ages[k], static_cast<int>(k));
   }
+}
+
+namespace {
+
+struct KeyFrameLabels {
+  int keyframes = 0;    ///< keyframes of frames 1..37 (made while the detector was blocked)
+  int left_usable = 0;  ///< their usable keypoints in the left half
+  int left_points = 0;  ///< their map points in the left half
+};
+
+/** Crowd-SLAM's box filter behind LeftHalfDetector, asynchronous: the
+ *  detector blocks on frame 1 until frame 37 was tracked, then runs. */
+KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out) {
+  // The camera of walking_xyz moves enough for keyframes in the first 40 frames.
+  auto ds = test::openDataset("dslam::TumDataset",
+                              test::cat("path: ", test::syntheticSequence("walking_xyz", 150, 320, 240), "\n"));
+  auto det = std::make_shared<dslam_test::LeftHalfDetector>();
+  SlamParams sp;
+  sp.place.enabled = false;
+  auto sys = std::make_unique<System>(*ds->camera(), sp, test::defaultBackend(), config::Mode::Parallel);
+  sys->addDetector("people", det, 1, System::DetectionMode::Async, true, redetect);
+  auto box = create<KeypointClassifier>("dslam::BoxFilter");
+  box->configure(Params::resolve(box->paramSpecs(), ""), PluginContext{});
+  sys->addClassifier("box_filter", box, "people");
+  for (size_t i = 0; i < 38; i++) sys->track(ds->read(i));
+  det->release();
+  for (size_t i = 38; i < 50; i++) sys->track(ds->read(i));
+  sys->shutdown();
+  timed_out = det->timed_out;
+  KeyFrameLabels out;
+  const float half = ds->camera()->left.width / 2.f;
+  for (const auto& [id, kf] : sys->map()->keyframes()) {
+    if (kf->bad) continue;
+    for (size_t i = 0; i < kf->size(); i++) {
+      if (kf->keys_un[i].pt.x >= half - 2) continue;
+      const bool point = kf->points[i] && !kf->points[i]->bad;
+      if (kf->frame_index < 1 || kf->frame_index > 37) continue;
+      out.left_usable += kf->usable(i);
+      out.left_points += point;
+    }
+    out.keyframes += kf->frame_index >= 1 && kf->frame_index <= 37;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(AsyncDetection, KeyFramesAreLabelledAgainFromTheirOwnDetection) {
+  bool timed_out = false;
+  const KeyFrameLabels redetect = runLeftHalf(true, timed_out);
+  EXPECT_FALSE(timed_out);
+  const KeyFrameLabels carried = runLeftHalf(false, timed_out);
+  EXPECT_FALSE(timed_out);
+  // Frames 1..37 were tracked with frame 0's empty detection carried to them.
+  ASSERT_GT(carried.keyframes, 0) << "no keyframe while the detector was blocked: the test shows nothing";
+  ASSERT_GT(redetect.keyframes, 0);
+  EXPECT_GT(carried.left_usable, 50 * carried.keyframes) << "keyframes kept their carried (empty) labels";
+  EXPECT_GT(carried.left_points, 20);
+  // keyframes: redetect: local mapping waited for each keyframe's own
+  // detection (a person over the left half) and labelled it again.
+  EXPECT_EQ(redetect.left_usable, 0);
+  EXPECT_EQ(redetect.left_points, 0) << "map points of keypoints that became dynamic were dropped";
 }

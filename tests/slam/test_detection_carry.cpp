@@ -147,5 +147,47 @@ TEST(DetectionCarry, ChainedCarriesReuseThePyramidAndGiveTheSameBoxes) {
   EXPECT_NEAR(changed.y, 150 + 141 - 160, 1.0);
 }
 
+TEST(DetectionCarry, HoldKeepsAMissedBoxAndMovesItWithItsObject) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  const cv::Mat b = scene(fx.bg, fx.obj, {212, 143});
+  Detections prev;
+  prev.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  prev.boxes.push_back({cv::Rect2f(450, 40, 60, 60), 3, 0.8f, -1});  // a car, reported again below
+  Detections cur;  // the detector missed the person on the new image
+  cur.frame_index = 21;
+  cur.boxes.push_back({cv::Rect2f(452, 41, 60, 60), 3, 0.7f, -1});
+  const std::vector<int> seen = holdMissedBoxes(prev, a, {18, 20}, cur, b, 21, 21, /*hold=*/5, /*flow=*/true);
+  ASSERT_EQ(cur.boxes.size(), 2u) << "the missed person is held, the car not duplicated";
+  EXPECT_EQ(cur.boxes[0].class_id, 3);
+  EXPECT_EQ(cur.boxes[1].class_id, 1);
+  EXPECT_NEAR(cur.boxes[1].box.x, 212, 1.0) << "held boxes move with their object";
+  EXPECT_NEAR(cur.boxes[1].box.y, 143, 1.0);
+  EXPECT_EQ(seen, (std::vector<int>{21, 18}));
+}
+
+TEST(DetectionCarry, HoldEndsAfterItsFramesAndWhenTheClassIsReportedThere) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  Detections prev;
+  prev.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  Detections cur;
+  auto seen = holdMissedBoxes(prev, a, {10}, cur, a, 16, 16, /*hold=*/5, true);
+  EXPECT_TRUE(cur.boxes.empty()) << "reported 6 frames ago, held 5";
+  cur.boxes.push_back({cv::Rect2f(230, 160, 110, 190), 1, 0.5f, -1});  // the person, reported again
+  seen = holdMissedBoxes(prev, a, {15}, cur, a, 16, 16, 5, true);
+  EXPECT_EQ(cur.boxes.size(), 1u);
+  holdMissedBoxes(prev, a, {15}, cur, a, 16, 16, /*hold=*/0, true);
+  EXPECT_EQ(cur.boxes.size(), 1u) << "hold 0 is off";
+  // Between detections, held boxes expire with their age.
+  Detections d;
+  d.boxes = {{cv::Rect2f(0, 0, 10, 10), 1, 1.f, -1}, {cv::Rect2f(20, 0, 10, 10), 1, 1.f, -1}};
+  std::vector<int> s = {30, 22};
+  dropExpiredBoxes(d, s, 30, 7);
+  ASSERT_EQ(d.boxes.size(), 1u);
+  EXPECT_EQ(d.boxes[0].box.x, 0);
+  EXPECT_EQ(s, std::vector<int>{30});
+}
+
 }  // namespace
 }  // namespace dslam

@@ -50,7 +50,7 @@ std::vector<SectionInfo> registeredSections() {
 }
 
 const std::vector<std::string>& moduleKeys() {
-  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection", "carry"};
+  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection", "carry", "hold", "keyframes"};
   return k;
 }
 
@@ -160,14 +160,16 @@ void requireDetector(const Loader& L, const node_t& v, const std::string& kp, co
     L.fail(kp + "." + key, &v, "'" + key + "' applies to detectors only ('" + mc.type + "' is a " + mc.interface_name + ")");
 }
 
-/** modules[i].every: detectors only, an integer >= 1. */
-int loadEvery(const Loader& L, const node_t& ev, const std::string& kp, const ModuleConfig& mc) {
+/** A detector-only integer key of modules[i] (every, hold), >= `min`. */
+int loadDetectorInt(const Loader& L, const node_t& ev, const std::string& kp, const ModuleConfig& mc,
+                    const std::string& key, long min, const std::string& meaning) {
   const auto t = yamlu::scalarText(ev).value_or("");
   char* end = nullptr;
   const long n = std::strtol(t.c_str(), &end, 10);
-  if (t.empty() || *end != '\0' || n < 1 || n > 1000000)
-    L.fail(kp + ".every", &ev, "expected an integer >= 1 (run the detector on every N-th frame), got " + yamlu::describe(ev));
-  requireDetector(L, ev, kp, mc, "every");
+  if (t.empty() || *end != '\0' || n < min || n > 1000000)
+    L.fail(kp + "." + key, &ev,
+           "expected an integer >= " + std::to_string(min) + " (" + meaning + "), got " + yamlu::describe(ev));
+  requireDetector(L, ev, kp, mc, key);
   return static_cast<int>(n);
 }
 
@@ -217,10 +219,15 @@ ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp)
   if (mc.interface_name == std::string("DatasetSource"))
     L.fail(kp + ".type", yamlu::findValue(e, "type"), "dataset readers go in the 'dataset:' section, not in modules");
   mc.params = L.section(plugin->paramSpecs(), yamlu::findValue(e, "params"), kp + ".params");
-  if (const node_t* ev = yamlu::findValue(e, "every")) mc.every = loadEvery(L, *ev, kp, mc);
+  if (const node_t* ev = yamlu::findValue(e, "every"))
+    mc.every = loadDetectorInt(L, *ev, kp, mc, "every", 1, "run the detector on every N-th frame");
+  if (const node_t* hv = yamlu::findValue(e, "hold"))
+    mc.hold = loadDetectorInt(L, *hv, kp, mc, "hold", 0, "frames a box the detector stops reporting is kept");
   if (const node_t* dm = yamlu::findValue(e, "detection"))
     mc.detection = loadDetectorChoice(L, *dm, kp, mc, "detection", {"auto", "sync", "async"});
   if (const node_t* cm = yamlu::findValue(e, "carry")) mc.carry = loadDetectorChoice(L, *cm, kp, mc, "carry", {"flow", "none"});
+  if (const node_t* km = yamlu::findValue(e, "keyframes"))
+    mc.keyframes = loadDetectorChoice(L, *km, kp, mc, "keyframes", {"redetect", "carried"});
   if (const node_t* in = yamlu::findValue(e, "inputs")) {
     if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
     for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
@@ -352,7 +359,8 @@ std::string PipelineConfig::toYaml() const {
       << "\n";
     if (!m.inputs.empty()) o << "    inputs: [" << yamlu::join(m.inputs) << "]\n";
     if (m.interface_name == std::string("Detector"))
-      o << "    every: " << m.every << "\n    detection: " << m.detection << "\n    carry: " << m.carry << "\n";
+      o << "    every: " << m.every << "\n    detection: " << m.detection << "\n    carry: " << m.carry
+        << "\n    hold: " << m.hold << "\n    keyframes: " << m.keyframes << "\n";
     o << "    params:" << paramsBlock(m.params, 6);
   }
   o << "outputs:" << paramsBlock(outputs, 2);

@@ -97,9 +97,10 @@ void LocalMapper::processOne(const KeyFramePtr& kf) {
   cur_ = kf;
   map_ = kf->map;
   if (!map_) return;
-  abort_ba_ = false;
+  if (gate_fn_) gate_fn_(*kf);
   const int fr = kf->frame_index;
   const double t0 = nowSeconds();
+  abort_ba_ = false;
   {
     std::lock_guard<std::recursive_mutex> lk(map_->update_mutex);
     if (kf->bad) return;

@@ -245,4 +245,41 @@ Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::M
   return out;
 }
 
+std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img, const std::vector<int>& prev_seen,
+                                 Detections& cur, const cv::Mat& img, int frame, int cur_seen, int hold, bool flow,
+                                 float min_iou, const CarryParams& p) {
+  std::vector<int> seen(cur.boxes.size(), cur_seen);
+  if (hold <= 0 || !prev.valid) return seen;
+  Detections held;
+  std::vector<int> held_seen;
+  for (size_t j = 0; j < prev.boxes.size() && j < prev_seen.size(); j++) {
+    if (frame - prev_seen[j] > hold) continue;
+    const BoundingBox& b = prev.boxes[j];
+    bool reported = false;
+    for (const auto& c : cur.boxes) reported |= c.class_id == b.class_id && iou(c.box, b.box) >= min_iou;
+    if (reported) continue;
+    held.boxes.push_back(b);
+    held_seen.push_back(prev_seen[j]);
+  }
+  if (held.boxes.empty()) return seen;
+  if (flow) held = carryDetections(held, prev_img, img, 0, p);
+  for (size_t j = 0; j < held.boxes.size(); j++) {
+    cur.boxes.push_back(held.boxes[j]);
+    seen.push_back(held_seen[j]);
+  }
+  return seen;
+}
+
+void dropExpiredBoxes(Detections& d, std::vector<int>& seen, int frame, int hold) {
+  size_t k = 0;
+  for (size_t j = 0; j < d.boxes.size() && j < seen.size(); j++) {
+    if (frame - seen[j] > hold) continue;
+    d.boxes[k] = d.boxes[j];
+    seen[k] = seen[j];
+    k++;
+  }
+  d.boxes.resize(k);
+  seen.resize(k);
+}
+
 }  // namespace dslam

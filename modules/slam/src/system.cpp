@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <deque>
 #include <fstream>
 #include <future>
 #include <set>
@@ -92,13 +93,23 @@ namespace dslam {
 // the latest finished result and carries it to the current frame by optical
 // flow (detection_carry.h); a new job starts whenever the worker is free and
 // `every` frames have passed since the last one started (every: 1 = as soon
-// as it is free).
+// as it is free). A frame that becomes a keyframe with a carried detection
+// is detected again right away (`keyframes: redetect`): local mapping waits
+// for that detection and labels the keyframe again before it triangulates
+// (System::relabelKeyFrame), so carried boxes that lag behind a person do not
+// put the person into the map.
 // ---------------------------------------------------------------------------
 
 struct System::DetectorSlot {
+  using Result = std::pair<Detections, double>;  ///< detections, ms
   struct Job {
     SensorFrame frame;  ///< shallow copy: an asynchronous job outlives the caller's frame
-    std::promise<std::pair<Detections, double>> result;  ///< detections, ms
+    std::shared_ptr<std::promise<Result>> result;
+  };
+  /** A keyframe's own detection, asked for after the frame was tracked. */
+  struct Late {
+    std::shared_future<Result> result;
+    cv::Mat gray;  ///< the keyframe's grey image (its result may become `last`)
   };
 
   std::string name;
@@ -106,37 +117,69 @@ struct System::DetectorSlot {
   int every = 1;
   bool async = false;
   bool flow = true;  ///< carry older detections by optical flow (false: left in place, age grows)
+  bool redetect_keyframes = true;  ///< async: keyframes with a carried detection are detected again
+  int hold = 0;                    ///< frames a box the detector stops reporting is kept (holdMissedBoxes)
+  std::vector<int> last_seen;      ///< hold: frame at which each box of `last` was last reported
+  Detections prev;                 ///< async, hold: the detection a new one replaced in this frame
+  cv::Mat prev_gray;
+  std::vector<int> prev_seen;
   Detections last;    ///< the latest detections given to a frame (carried forward)
   cv::Mat last_gray;  ///< grey image `last` describes
-  std::future<std::pair<Detections, double>> pending;
+  std::shared_future<Result> pending;  ///< shared: a keyframe's relabelling may wait for it too
   cv::Mat pending_gray;  ///< grey image of the frame the pending job detects
-  bool submitted_now = false, fresh = false, ran = false;
+  std::deque<Late> late;  ///< keyframe jobs queued behind `pending`, oldest first
+  bool submitted_now = false;
+  bool fresh = false;  ///< async: a new detection arrived in this frame (take())
+  bool ran = false;    ///< sync: the detector ran on this frame
   int64_t last_submit = -1000000;  ///< frame count when the last asynchronous job started
   Worker<Job> worker{[this](Job& j) {
     try {
       const double t0 = nowSeconds();
       Detections d = det->detect(j.frame);
       d.frame_index = j.frame.index;
-      j.result.set_value({std::move(d), (nowSeconds() - t0) * 1e3});
+      j.result->set_value({std::move(d), (nowSeconds() - t0) * 1e3});
     } catch (...) {
-      j.result.set_exception(std::current_exception());
+      j.result->set_exception(std::current_exception());
     }
   }};
 
-  void submit(const SensorFrame& f) {
+  std::shared_future<Result> push(const SensorFrame& f) {
     Job j;
     j.frame = f;
-    pending = j.result.get_future();
+    j.result = std::make_shared<std::promise<Result>>();
+    auto fut = j.result->get_future().share();
     worker.push(std::move(j));
+    return fut;
   }
-  bool pendingReady() const {
-    return pending.valid() && pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  void submit(const SensorFrame& f) { pending = push(f); }
+  static bool ready(const std::shared_future<Result>& r) {
+    return r.valid() && r.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
   }
+  bool pendingReady() const { return ready(pending); }
   /** Detections of the submitted frame; rethrows the detector's exception. */
   Detections wait(double& out_ms) {
-    auto r = pending.get();
-    out_ms = r.second;
-    return std::move(r.first);
+    const std::shared_future<Result> r = std::move(pending);
+    pending = {};
+    out_ms = r.get().second;
+    return r.get().first;
+  }
+  /** Async: `d` (of image `gray`) becomes the latest detection; the one it
+   *  replaces is kept for `hold` (the first replacement in a frame). */
+  void take(Detections d, const cv::Mat& gray) {
+    if (!fresh) {
+      prev = std::move(last);
+      prev_gray = last_gray;
+      prev_seen = std::move(last_seen);
+      last_seen.clear();
+    }
+    last = std::move(d);
+    last_gray = gray;
+    fresh = true;
+  }
+  /** Waits for every job this slot started (error paths, shutdown). */
+  void waitAll() {
+    if (pending.valid()) pending.wait();
+    for (const auto& l : late) l.result.wait();
   }
 };
 
@@ -209,6 +252,7 @@ System::System(const CameraModel& camera, const SlamParams& p, std::shared_ptr<B
   LoopCloser* lc = loop_.get();
   MapManager* mm = maps_.get();
   StageTimer* timer = &timer_;
+  mapper_->setKeyFrameGate([this](KeyFrame& kf) { relabelKeyFrame(kf); });
   mapper_->setKeyFrameCallback([lc, mm, timer](const KeyFramePtr& kf) {
     {
       StageTimer::Scope t(timer, "map_manager", kf->frame_index);
@@ -327,12 +371,14 @@ System::~System() { shutdown(); }
 MapPtr System::map() const { return maps_->currentMap(); }
 
 void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every, DetectionMode detection,
-                         bool carry_by_flow) {
+                         bool carry_by_flow, bool redetect_keyframes, int hold) {
   auto s = std::make_unique<DetectorSlot>();
   s->name = name;
   s->det = std::move(det);
   s->every = std::max(1, every);
   s->flow = carry_by_flow;
+  s->redetect_keyframes = redetect_keyframes;
+  s->hold = std::max(0, hold);
   const bool parallel = mode_ == config::Mode::Parallel;
   s->async = parallel && (detection == DetectionMode::Async ||
                           (detection == DetectionMode::Auto && !s->det->precomputed()));
@@ -372,13 +418,20 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
       // The first frame waits for its detection: a map must not start on undetected movers.
       if (s.pending.valid() && (s.pendingReady() || s.last_gray.empty())) {
         double ms = 0;
-        s.last = s.wait(ms);
-        s.last_gray = s.pending_gray;
-        s.fresh = true;
+        Detections d = s.wait(ms);
+        s.take(std::move(d), s.pending_gray);
         timer_.add("detector", s.last.frame_index, ms);
       }
+      // Keyframes' own detections (queued after `pending`): newer than the
+      // last one, they are carried from here on too.
+      while (!s.late.empty() && DetectorSlot::ready(s.late.front().result)) {
+        const DetectorSlot::Result& r = s.late.front().result.get();  // rethrows the detector's error
+        timer_.add("detector", r.first.frame_index, r.second);
+        if (r.first.frame_index > s.last.frame_index) s.take(r.first, s.late.front().gray);
+        s.late.pop_front();
+      }
       const auto n = static_cast<int64_t>(frames_);
-      if (!s.pending.valid() && n - s.last_submit >= s.every) {
+      if (!s.pending.valid() && s.late.empty() && n - s.last_submit >= s.every) {
         s.submit(in);
         s.submitted_now = true;
         s.last_submit = n;
@@ -401,9 +454,9 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
         if (s.submitted_now) s.pending_gray = f.gray;
         if (s.last_gray.empty() && s.submitted_now && frames_ == 0) {  // first frame: wait once
           double ms = 0;
-          s.last = s.wait(ms);
-          s.last.frame_index = fi;
-          s.last_gray = f.gray;
+          Detections d0 = s.wait(ms);
+          d0.frame_index = fi;
+          s.take(std::move(d0), f.gray);
           timer_.add("detector", fi, ms);
         }
       }
@@ -434,6 +487,17 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
       } else {
         dets[d].valid = false;  // no detection yet
       }
+      if (s.hold > 0 && dets[d].valid) {
+        if ((!s.async && s.ran) || s.fresh) {
+          // A new detection: boxes of the one before that it lacks are held.
+          const bool sync_new = !s.async;
+          s.last_seen = holdMissedBoxes(sync_new ? s.last : s.prev, sync_new ? s.last_gray : s.prev_gray,
+                                        sync_new ? s.last_seen : s.prev_seen, dets[d], f.gray, fi,
+                                        dets[d].frame_index, s.hold, s.flow);
+        } else {
+          dropExpiredBoxes(dets[d], s.last_seen, fi, s.hold);
+        }
+      }
       if (dets[d].valid) {
         s.last = dets[d];
         s.last_gray = f.gray;
@@ -441,8 +505,7 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     }
   } catch (...) {
     // Detector threads still work on their copies of the frame: let them finish.
-    for (auto& s : detectors_)
-      if (s->pending.valid()) s->pending.wait();
+    for (auto& s : detectors_) s->waitAll();
     throw;
   }
   return f;
@@ -496,6 +559,7 @@ FrameResult System::track(const SensorFrame& in) {
   for (auto& c : classifiers_) {
     c.c->afterTracking(copy ? *copy : Frame{}, c.detector >= 0 ? dets[c.detector] : kNoDetections, T_wc);
   }
+  if (copy && (res.track.keyframe || res.track.initialized)) redetectKeyFrame(in, *copy, dets);
   res.ms_total = (nowSeconds() - t0) * 1e3;
   timer_.add("frame", fi, res.ms_total);
   if (kf_observer_ && res.track.keyframe) kf_observer_(*copy, dets);
@@ -525,11 +589,88 @@ FrameResult System::track(const SensorFrame& in) {
   return res;
 }
 
+void System::redetectKeyFrame(const SensorFrame& in, const Frame& f, const std::vector<Detections>& dets) {
+  const KeyFrame* kf = tracker_->referenceKeyFrame();
+  if (!kf || kf->frame_index != f.index()) return;
+  LateLabels late;
+  for (size_t d = 0; d < detectors_.size(); d++) {
+    auto& s = *detectors_[d];
+    if (!s.async || !s.redetect_keyframes) continue;
+    if (dets[d].valid && dets[d].age_frames == 0) continue;  // labelled from its own detection already
+    bool relabels = false;
+    for (const auto& c : classifiers_) relabels |= c.detector == static_cast<int>(d) && c.c->relabelsKeyFrames();
+    if (!relabels) continue;
+    std::shared_future<DetectorSlot::Result> r;
+    if (s.submitted_now) {
+      r = s.pending;  // this frame's own detection is running
+    } else {
+      r = s.push(in);  // queued behind the running job: never waits for this thread
+      s.late.push_back({r, f.gray});
+    }
+    late.jobs.emplace_back(static_cast<int>(d), std::move(r));
+  }
+  if (late.jobs.empty()) return;
+  late.frame = std::make_shared<Frame>(f);
+  std::lock_guard<std::mutex> lk(late_mtx_);
+  late_[kf->id] = std::move(late);
+}
+
+void System::relabelKeyFrame(KeyFrame& kf) {
+  LateLabels late;
+  {
+    std::lock_guard<std::mutex> lk(late_mtx_);
+    auto it = late_.find(kf.id);
+    if (it == late_.end()) return;
+    late = std::move(it->second);
+    late_.erase(it);
+  }
+  const double t0 = nowSeconds();
+  Frame& f = *late.frame;
+  ClassifierContext ctx;
+  ctx.camera = &frontend_->camera();
+  ctx.base_feature_count = base_features_;
+  for (auto& [d, r] : late.jobs) {
+    Detections det;
+    try {
+      det = r.get().first;  // waits; the job was queued when the keyframe was made
+    } catch (const std::exception& e) {
+      DSLAM_LOG(Debug, "keyframe " << kf.id << ": its own detection failed (" << e.what() << "): carried labels kept");
+      continue;
+    }
+    det.age_frames = 0;
+    for (auto& c : classifiers_)
+      if (c.detector == d && c.c->relabelsKeyFrames()) c.c->classify(f, det, ctx);
+  }
+  timer_.add("keyframe_detection_wait", kf.frame_index, (nowSeconds() - t0) * 1e3);
+  std::lock_guard<std::recursive_mutex> lk(kf.map->update_mutex);
+  if (kf.bad || kf.meta.size() != kf.size() || f.meta.size() != kf.size()) return;
+  int kps = 0, pts = 0;
+  for (size_t i = 0; i < kf.size(); i++) {
+    if (f.meta[i].label != KpLabel::Dynamic || kf.meta[i].label == KpLabel::Dynamic) continue;
+    kf.meta[i] = f.meta[i];
+    kps++;
+    if (const MapPointPtr mp = kf.points[i]) {
+      if (mp->first_kf_id == kf.id)
+        mp->setBad();  // made from this keyframe's depth
+      else
+        kf.points[i].reset();  // a match: its observation is not added
+      pts++;
+    }
+  }
+  relabelled_kfs_++;
+  relabelled_kps_ += kps;
+  relabelled_pts_ += pts;
+}
+
 void System::shutdown() {
   if (shut_) return;
   shut_ = true;
-  if (mode_ == config::Mode::Parallel) mapper_->stop();
+  if (mode_ == config::Mode::Parallel) mapper_->stop();  // waits for the keyframes' own detections too
   mapper_->processAll();
+  if (relabelled_kfs_ > 0)
+    DSLAM_LOG(Info, relabelled_kfs_ << " keyframes with carried detections labelled again from their own detection: "
+                                    << relabelled_kps_ << " keypoints became dynamic, " << relabelled_pts_
+                                    << " of their map points or matches dropped");
   if (loop_) {
     loop_->waitIdle();
     loop_->stop();

@@ -43,6 +43,15 @@ struct ModuleConfig {
    *  (moved by optical flow, detection_carry.h) | "none" (left where it was;
    *  its age still grows). */
   std::string carry = "flow";
+  /** detectors: frames a box the detector stops reporting is kept (moved
+   *  like a carried detection) while no new box of its class overlaps it;
+   *  0 = off. Small detectors flicker: Yolo-Fastest misses a walking person
+   *  on 8 frames in a row of walking_xyz. */
+  int hold = 0;
+  /** detectors, asynchronous: "redetect" (a keyframe whose detection was
+   *  carried is detected again and labelled again before local mapping uses
+   *  it) | "carried" (its carried labels stay). */
+  std::string keyframes = "redetect";
   SourceLocation where;
 };
 
@@ -92,7 +101,7 @@ std::vector<SectionInfo> registeredSections();
 
 std::vector<ParamSpec> pipelineParamSpecs();
 /** The keys of a `modules:` entry (name, type, params, inputs, enabled,
- *  every, detection, carry). */
+ *  every, detection, carry, hold, keyframes). */
 const std::vector<std::string>& moduleKeys();
 std::vector<ParamSpec> datasetCommonParamSpecs();
 std::vector<ParamSpec> outputParamSpecs();

@@ -35,6 +35,13 @@ class KeypointClassifier : public Plugin {
     (void)det;
     (void)T_wc;
   }
+  /** True when classify() depends on the frame's keypoints and the
+   *  detection alone (no context, no state, no side effect) and may run in
+   *  another thread concurrently with the tracking thread's calls. With
+   *  asynchronous detection, System then labels each keyframe whose
+   *  detection was carried from an older image again when the detection of
+   *  its own image arrives (before local mapping uses the keyframe). */
+  virtual bool relabelsKeyFrames() const { return false; }
   /** Feature count wanted for the next frame; 0 = no request. */
   virtual int requestedFeatureCount() const { return 0; }
   /** Clears internal state (new sequence). */

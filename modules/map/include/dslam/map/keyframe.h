@@ -56,7 +56,10 @@ class KeyFrame {
   const std::vector<cv::KeyPoint> keys_un;
   const cv::Mat descriptors;
   const std::vector<float> depth, u_right;
-  const std::vector<KeypointMeta> meta;
+  /** Classifier labels. Fixed once local mapping has taken the keyframe;
+   *  before that a late detection of its own image may raise some to
+   *  dynamic (System, under the map's update_mutex). */
+  std::vector<KeypointMeta> meta;
   const CameraIntrinsics cam;
   const std::shared_ptr<const ScaleLevels> scale;
   FeatureGrid grid;

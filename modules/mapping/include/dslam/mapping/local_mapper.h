@@ -57,6 +57,12 @@ class LocalMapper : public KeyFrameSink {
   void setBowFunction(std::function<void(KeyFrame*)> fn) { bow_fn_ = std::move(fn); }
   /** Called with every processed keyframe (loop closing queue). */
   void setKeyFrameCallback(std::function<void(const KeyFramePtr&)> cb) { on_kf_ = std::move(cb); }
+  /** Called first for every keyframe, in the mapping thread, before it
+   *  takes the map lock: may wait (System: for the detection of the
+   *  keyframe's own image when detection is asynchronous) and may label
+   *  keypoints dynamic and drop their points, under the map's update_mutex,
+   *  before the keyframe's points are observed and new points triangulated. */
+  void setKeyFrameGate(std::function<void(KeyFrame&)> fn) { gate_fn_ = std::move(fn); }
 
   // KeyFrameSink
   bool acceptsKeyFrames() const override { return !worker_.busy(); }
@@ -98,6 +104,7 @@ class LocalMapper : public KeyFrameSink {
   Map* map_ = nullptr;  ///< map of the keyframe being processed
   std::function<void(const KeyFramePtr&)> on_kf_;
   std::function<void(KeyFrame*)> bow_fn_;
+  std::function<void(KeyFrame&)> gate_fn_;
 
   KeyFramePtr cur_;
   std::list<MapPointPtr> recent_points_;

@@ -10,6 +10,8 @@
  *  spread. A region without enough trackable corners stays where it was. */
 #include <opencv2/core.hpp>
 
+#include <vector>
+
 #include "dslam/core/detection.h"
 
 namespace dslam {
@@ -41,5 +43,22 @@ RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect
  *  (panoptic 0, semantic 255). */
 Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::Mat& to, int age,
                            const CarryParams& p = {});
+
+/** `hold:` of a detector, which keeps boxes it stops reporting for a few
+ *  frames (small detectors flicker). `prev` describes image `prev_img`;
+ *  prev_seen[j] is the frame at which the detector last reported box j.
+ *  Each box of `prev` that was reported at most `hold` frames before
+ *  `frame` and that no box of `cur` of the same class overlaps (IoU >=
+ *  `min_iou`, `cur` describing image `img`) is moved to `img` (optical flow
+ *  when `flow`, else left in place) and appended to `cur`. Returns the
+ *  last-reported frame of each box of the result: `cur_seen` for cur's own
+ *  boxes, prev_seen for the held ones. */
+std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img, const std::vector<int>& prev_seen,
+                                 Detections& cur, const cv::Mat& img, int frame, int cur_seen, int hold, bool flow,
+                                 float min_iou = 0.1f, const CarryParams& p = {});
+
+/** Removes the boxes of `d` last reported more than `hold` frames before
+ *  `frame` (seen[j], kept aligned with d.boxes). */
+void dropExpiredBoxes(Detections& d, std::vector<int>& seen, int frame, int hold);
 
 }  // namespace dslam

@@ -10,7 +10,11 @@
  *  their own threads and each detector on a dslam::Worker thread
  *  concurrently with ORB extraction (the tracking thread then waits for the
  *  detections on a future). */
+#include <atomic>
+#include <future>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -83,7 +87,8 @@ class System {
   /** Adds a detector; classifiers name it as their input (first one by default).
    *  Sequential mode is always Sync (deterministic). */
   void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1,
-                   DetectionMode detection = DetectionMode::Auto, bool carry_by_flow = true);
+                   DetectionMode detection = DetectionMode::Auto, bool carry_by_flow = true,
+                   bool redetect_keyframes = true, int hold = 0);
   /** Appends a classifier to the chain; `detector` = "" uses the first detector. */
   void addClassifier(const std::string& name, std::shared_ptr<KeypointClassifier> c, const std::string& detector = "");
 
@@ -153,6 +158,21 @@ class System {
   /** The classifier chain on `f`; sets the next frame's feature count. */
   void classify(Frame& f, const std::vector<Detections>& dets);
   void indexKeyFrames();
+  /** Asynchronous detection: when frame `f` (classified, before tracking)
+   *  became a keyframe with a detection carried from an older image, its
+   *  own detection is queued; relabelKeyFrame() (local mapping's gate)
+   *  waits for it, labels the keyframe again with the classifiers that
+   *  relabelsKeyFrames(), and drops the map points and matches of keypoints
+   *  that became dynamic. */
+  void redetectKeyFrame(const SensorFrame& in, const Frame& f, const std::vector<Detections>& dets);
+  void relabelKeyFrame(KeyFrame& kf);
+  struct LateLabels {
+    std::shared_ptr<Frame> frame;
+    std::vector<std::pair<int, std::shared_future<std::pair<Detections, double>>>> jobs;  ///< detector slot, result
+  };
+  std::mutex late_mtx_;
+  std::map<int64_t, LateLabels> late_;  ///< by keyframe id
+  std::atomic<int> relabelled_kfs_{0}, relabelled_kps_{0}, relabelled_pts_{0};
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
   std::vector<ClassifierSlot> classifiers_;
   std::optional<Frame> prev_frame_;

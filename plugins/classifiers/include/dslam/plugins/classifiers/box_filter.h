@@ -21,6 +21,7 @@ class BoxFilter : public KeypointClassifier {
   std::vector<ParamSpec> paramSpecs() const override;
   void configure(const Params& p, const PluginContext& ctx) override;
   void classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) override;
+  bool relabelsKeyFrames() const override { return true; }  ///< labels from the detection alone
 
  private:
   std::vector<int> classes_{1};
