@@ -204,6 +204,7 @@ struct KeyFrameLabels {
   int keyframes = 0;    ///< keyframes of frames 1..37 (made while the detector was blocked)
   int left_usable = 0;  ///< their usable keypoints in the left half
   int left_points = 0;  ///< their map points in the left half
+  size_t awaiting = 0;  ///< keyframes registered for labels that local mapping never took
 };
 
 /** Crowd-SLAM's box filter behind LeftHalfDetector, asynchronous: the
@@ -226,6 +227,7 @@ KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out) {
   sys->shutdown();
   timed_out = det->timed_out;
   KeyFrameLabels out;
+  out.awaiting = sys->keyFramesAwaitingLabels();
   const float half = ds->camera()->left.width / 2.f;
   for (const auto& [id, kf] : sys->map()->keyframes()) {
     if (kf->bad) continue;
@@ -258,4 +260,5 @@ TEST(AsyncDetection, KeyFramesAreLabelledAgainFromTheirOwnDetection) {
   // detection (a person over the left half) and labelled it again.
   EXPECT_EQ(redetect.left_usable, 0);
   EXPECT_EQ(redetect.left_points, 0) << "map points of keypoints that became dynamic were dropped";
+  EXPECT_EQ(redetect.awaiting, 0u) << "a keyframe taken by local mapping before it was registered";
 }

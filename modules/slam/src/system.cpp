@@ -551,15 +551,34 @@ FrameResult System::track(const SensorFrame& in) {
   if (keep_prev || kf_observer_) copy = f;  // classifiers look at the previous frame (images and keypoints)
 
   {
-    auto t = timer_.scope("track", fi);
-    res.track = tracker_->track(std::move(f));
+    // Local mapping may take this frame's keyframe before redetectKeyFrame()
+    // below has registered it: its gate waits while this frame is tracked.
+    std::lock_guard<std::mutex> lk(late_mtx_);
+    tracking_frame_ = fi;
+  }
+  struct EndTracking {
+    System* s;
+    ~EndTracking() {
+      {
+        std::lock_guard<std::mutex> lk(s->late_mtx_);
+        s->tracking_frame_ = -1;
+      }
+      s->late_cv_.notify_all();
+    }
+  };
+  {
+    EndTracking end{this};
+    {
+      auto t = timer_.scope("track", fi);
+      res.track = tracker_->track(std::move(f));
+    }
+    if (copy && (res.track.keyframe || res.track.initialized)) redetectKeyFrame(in, *copy, dets);
   }
   std::optional<SE3> T_wc;
   if (res.track.T_cw) T_wc = res.track.T_cw->inverse();
   for (auto& c : classifiers_) {
     c.c->afterTracking(copy ? *copy : Frame{}, c.detector >= 0 ? dets[c.detector] : kNoDetections, T_wc);
   }
-  if (copy && (res.track.keyframe || res.track.initialized)) redetectKeyFrame(in, *copy, dets);
   res.ms_total = (nowSeconds() - t0) * 1e3;
   timer_.add("frame", fi, res.ms_total);
   if (kf_observer_ && res.track.keyframe) kf_observer_(*copy, dets);
@@ -618,7 +637,8 @@ void System::redetectKeyFrame(const SensorFrame& in, const Frame& f, const std::
 void System::relabelKeyFrame(KeyFrame& kf) {
   LateLabels late;
   {
-    std::lock_guard<std::mutex> lk(late_mtx_);
+    std::unique_lock<std::mutex> lk(late_mtx_);
+    late_cv_.wait(lk, [&] { return tracking_frame_ != kf.frame_index; });
     auto it = late_.find(kf.id);
     if (it == late_.end()) return;
     late = std::move(it->second);

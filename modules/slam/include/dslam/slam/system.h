@@ -11,6 +11,7 @@
  *  concurrently with ORB extraction (the tracking thread then waits for the
  *  detections on a future). */
 #include <atomic>
+#include <condition_variable>
 #include <future>
 #include <map>
 #include <memory>
@@ -127,6 +128,12 @@ class System {
   const Tracker& tracker() const { return *tracker_; }
   const LocalMapper& mapper() const { return *mapper_; }
   size_t framesProcessed() const { return frames_; }
+  /** Keyframes registered for labelling from their own detection that
+   *  local mapping has not taken yet (0 after shutdown()). */
+  size_t keyFramesAwaitingLabels() {
+    std::lock_guard<std::mutex> lk(late_mtx_);
+    return late_.size();
+  }
 
  private:
   struct DetectorSlot;
@@ -171,6 +178,8 @@ class System {
     std::vector<std::pair<int, std::shared_future<std::pair<Detections, double>>>> jobs;  ///< detector slot, result
   };
   std::mutex late_mtx_;
+  std::condition_variable late_cv_;
+  int tracking_frame_ = -1;  ///< frame in tracker_->track() (late_mtx_): its keyframe may not be registered yet
   std::map<int64_t, LateLabels> late_;  ///< by keyframe id
   std::atomic<int> relabelled_kfs_{0}, relabelled_kps_{0}, relabelled_pts_{0};
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
