@@ -78,8 +78,9 @@ class BoxProbe : public dslam::KeypointClassifier {
 };
 
 /** Frame 0: nothing. Later frames: a person box over the left half of the
- *  image. Its second call (frame 1) blocks until the test opens the gate,
- *  so frames 1.. are given frame 0's empty detection meanwhile. */
+ *  image (reversed: the box on frame 0 only). Its second call (frame 1)
+ *  blocks until the test opens the gate, so frames 1.. are given frame 0's
+ *  detection meanwhile. */
 class LeftHalfDetector : public dslam::Detector {
   DEFINE_MRPT_OBJECT(LeftHalfDetector, dslam_test)
  public:
@@ -89,7 +90,7 @@ class LeftHalfDetector : public dslam::Detector {
     std::unique_lock<std::mutex> lk(m);
     if (calls++ == 1) timed_out |= !cv.wait_for(lk, std::chrono::seconds(30), [this] { return open; });
     dslam::Detections d;
-    if (f.index > 0) d.boxes.push_back({cv::Rect2f(0, 0, f.image.cols / 2.f, static_cast<float>(f.image.rows)), 1, 0.9f, -1});
+    if ((f.index > 0) != reversed) d.boxes.push_back({cv::Rect2f(0, 0, f.image.cols / 2.f, static_cast<float>(f.image.rows)), 1, 0.9f, -1});
     return d;
   }
   void release() {
@@ -99,7 +100,7 @@ class LeftHalfDetector : public dslam::Detector {
   }
   std::mutex m;
   std::condition_variable cv;
-  bool open = false, timed_out = false;
+  bool open = false, timed_out = false, reversed = false;
   int calls = 0;
 };
 
@@ -209,11 +210,12 @@ struct KeyFrameLabels {
 
 /** Crowd-SLAM's box filter behind LeftHalfDetector, asynchronous: the
  *  detector blocks on frame 1 until frame 37 was tracked, then runs. */
-KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out) {
+KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out, bool reversed = false) {
   // The camera of walking_xyz moves enough for keyframes in the first 40 frames.
   auto ds = test::openDataset("dslam::TumDataset",
                               test::cat("path: ", test::syntheticSequence("walking_xyz", 150, 320, 240), "\n"));
   auto det = std::make_shared<dslam_test::LeftHalfDetector>();
+  det->reversed = reversed;
   SlamParams sp;
   sp.place.enabled = false;
   auto sys = std::make_unique<System>(*ds->camera(), sp, test::defaultBackend(), config::Mode::Parallel);
@@ -221,6 +223,9 @@ KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out) {
   auto box = create<KeypointClassifier>("dslam::BoxFilter");
   box->configure(Params::resolve(box->paramSpecs(), ""), PluginContext{});
   sys->addClassifier("box_filter", box, "people");
+  auto count = create<KeypointClassifier>("dslam::AdaptiveFeatureCount");  // labels nothing: labels are still replaced
+  count->configure(Params::resolve(count->paramSpecs(), ""), PluginContext{});
+  sys->addClassifier("feature_count", count, "people");
   for (size_t i = 0; i < 38; i++) sys->track(ds->read(i));
   det->release();
   for (size_t i = 38; i < 50; i++) sys->track(ds->read(i));
@@ -261,4 +266,19 @@ TEST(AsyncDetection, KeyFramesAreLabelledAgainFromTheirOwnDetection) {
   EXPECT_EQ(redetect.left_usable, 0);
   EXPECT_EQ(redetect.left_points, 0) << "map points of keypoints that became dynamic were dropped";
   EXPECT_EQ(redetect.awaiting, 0u) << "a keyframe taken by local mapping before it was registered";
+}
+
+TEST(AsyncDetection, KeyFramesLabelledOnlyByACarriedBoxBecomeUsable) {
+  // The person box is on frame 0 only: frames 1..37 get it carried while
+  // the detector is blocked; their own detections have no box.
+  bool timed_out = false;
+  const KeyFrameLabels redetect = runLeftHalf(true, timed_out, /*reversed=*/true);
+  EXPECT_FALSE(timed_out);
+  const KeyFrameLabels carried = runLeftHalf(false, timed_out, true);
+  EXPECT_FALSE(timed_out);
+  ASSERT_GT(carried.keyframes, 0);
+  ASSERT_GT(redetect.keyframes, 0);
+  EXPECT_EQ(carried.left_usable, 0) << "the carried box made the left half dynamic";
+  EXPECT_GT(redetect.left_usable, 50 * redetect.keyframes) << "labels from the keyframes' own detections replace the carried ones";
+  EXPECT_EQ(redetect.awaiting, 0u);
 }

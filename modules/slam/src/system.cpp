@@ -626,9 +626,26 @@ void System::redetectKeyFrame(const SensorFrame& in, const Frame& f, const std::
       r = s.push(in);  // queued behind the running job: never waits for this thread
       s.late.push_back({r, f.gray});
     }
-    late.jobs.emplace_back(static_cast<int>(d), std::move(r));
+    LateLabels::Job job;
+    job.detector = static_cast<int>(d);
+    job.result = std::move(r);
+    if (s.hold > 0) {  // its own detection gets the boxes held in the carried one (as a synchronous frame would)
+      job.carried = dets[d];
+      job.seen = s.last_seen;
+      job.hold = s.hold;
+    }
+    late.jobs.push_back(std::move(job));
   }
   if (late.jobs.empty()) return;
+  // Labels are replaced (not only raised) when every classifier that labels
+  // keypoints labels from one of these detections alone.
+  late.replace = true;
+  for (const auto& c : classifiers_) {
+    if (!c.c->labelsKeypoints()) continue;
+    bool redetected = false;
+    for (const auto& j : late.jobs) redetected |= j.detector == c.detector;
+    late.replace &= c.c->relabelsKeyFrames() && redetected;
+  }
   late.frame = std::make_shared<Frame>(f);
   std::lock_guard<std::mutex> lk(late_mtx_);
   late_[kf->id] = std::move(late);
@@ -649,23 +666,41 @@ void System::relabelKeyFrame(KeyFrame& kf) {
   ClassifierContext ctx;
   ctx.camera = &frontend_->camera();
   ctx.base_feature_count = base_features_;
-  for (auto& [d, r] : late.jobs) {
-    Detections det;
+  std::vector<Detections> own(late.jobs.size());
+  bool all = true;
+  for (size_t k = 0; k < late.jobs.size(); k++) {
+    auto& j = late.jobs[k];
     try {
-      det = r.get().first;  // waits; the job was queued when the keyframe was made
+      own[k] = j.result.get().first;  // waits; the job was queued when the keyframe was made
+      own[k].age_frames = 0;
+      if (j.hold > 0)
+        holdMissedBoxes(j.carried, cv::Mat(), j.seen, own[k], cv::Mat(), kf.frame_index, kf.frame_index, j.hold, false);
     } catch (const std::exception& e) {
       DSLAM_LOG(Debug, "keyframe " << kf.id << ": its own detection failed (" << e.what() << "): carried labels kept");
-      continue;
+      own[k].valid = false;
+      all = false;
     }
-    det.age_frames = 0;
+  }
+  // Replacing: the labels these classifiers give from the keyframe's own
+  // detections alone, as in the synchronous mode; else they are only raised.
+  const bool replace = late.replace && all;
+  if (replace)
+    for (auto& m : f.meta) m = KeypointMeta{};
+  for (size_t k = 0; k < late.jobs.size(); k++) {
+    if (!own[k].valid) continue;
     for (auto& c : classifiers_)
-      if (c.detector == d && c.c->relabelsKeyFrames()) c.c->classify(f, det, ctx);
+      if (c.detector == late.jobs[k].detector && c.c->relabelsKeyFrames()) c.c->classify(f, own[k], ctx);
   }
   timer_.add("keyframe_detection_wait", kf.frame_index, (nowSeconds() - t0) * 1e3);
   std::lock_guard<std::recursive_mutex> lk(kf.map->update_mutex);
   if (kf.bad || kf.meta.size() != kf.size() || f.meta.size() != kf.size()) return;
-  int kps = 0, pts = 0;
+  int kps = 0, pts = 0, lowered = 0;
   for (size_t i = 0; i < kf.size(); i++) {
+    if (f.meta[i].label != KpLabel::Dynamic && kf.meta[i].label == KpLabel::Dynamic && replace) {
+      kf.meta[i] = f.meta[i];  // only the carried box made it dynamic: usable from now on (no point yet)
+      lowered++;
+      continue;
+    }
     if (f.meta[i].label != KpLabel::Dynamic || kf.meta[i].label == KpLabel::Dynamic) continue;
     kf.meta[i] = f.meta[i];
     kps++;
@@ -680,6 +715,7 @@ void System::relabelKeyFrame(KeyFrame& kf) {
   relabelled_kfs_++;
   relabelled_kps_ += kps;
   relabelled_pts_ += pts;
+  relabelled_lowered_ += lowered;
 }
 
 void System::shutdown() {
@@ -690,7 +726,8 @@ void System::shutdown() {
   if (relabelled_kfs_ > 0)
     DSLAM_LOG(Info, relabelled_kfs_ << " keyframes with carried detections labelled again from their own detection: "
                                     << relabelled_kps_ << " keypoints became dynamic, " << relabelled_pts_
-                                    << " of their map points or matches dropped");
+                                    << " of their map points or matches dropped, " << relabelled_lowered_
+                                    << " dynamic only in the carried detection became usable");
   if (loop_) {
     loop_->waitIdle();
     loop_->stop();

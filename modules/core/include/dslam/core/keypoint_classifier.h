@@ -42,6 +42,10 @@ class KeypointClassifier : public Plugin {
    *  detection was carried from an older image again when the detection of
    *  its own image arrives (before local mapping uses the keyframe). */
   virtual bool relabelsKeyFrames() const { return false; }
+  /** False for classifiers that never change labels (AdaptiveFeatureCount
+   *  only asks for a feature count): when all the others relabel keyframes,
+   *  a keyframe's labels from its own detection replace the carried ones. */
+  virtual bool labelsKeypoints() const { return true; }
   /** Feature count wanted for the next frame; 0 = no request. */
   virtual int requestedFeatureCount() const { return 0; }
   /** Clears internal state (new sequence). */

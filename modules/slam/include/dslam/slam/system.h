@@ -174,14 +174,25 @@ class System {
   void redetectKeyFrame(const SensorFrame& in, const Frame& f, const std::vector<Detections>& dets);
   void relabelKeyFrame(KeyFrame& kf);
   struct LateLabels {
-    std::shared_ptr<Frame> frame;
-    std::vector<std::pair<int, std::shared_future<std::pair<Detections, double>>>> jobs;  ///< detector slot, result
+    std::shared_ptr<Frame> frame;  ///< the keyframe's frame, classified with its carried detections
+    struct Job {
+      int detector = -1;
+      std::shared_future<std::pair<Detections, double>> result;  ///< the keyframe's own detection
+      Detections carried;     ///< with `hold`: the detection carried to the keyframe,
+      std::vector<int> seen;  ///< the frame each of its boxes was last reported,
+      int hold = 0;           ///< and the detector's hold
+    };
+    std::vector<Job> jobs;
+    /** Every classifier that labels keypoints labels from these detections
+     *  alone: the own detections' labels replace the carried ones (lowered
+     *  too), else they are only raised. */
+    bool replace = false;
   };
   std::mutex late_mtx_;
   std::condition_variable late_cv_;
   int tracking_frame_ = -1;  ///< frame in tracker_->track() (late_mtx_): its keyframe may not be registered yet
   std::map<int64_t, LateLabels> late_;  ///< by keyframe id
-  std::atomic<int> relabelled_kfs_{0}, relabelled_kps_{0}, relabelled_pts_{0};
+  std::atomic<int> relabelled_kfs_{0}, relabelled_kps_{0}, relabelled_pts_{0}, relabelled_lowered_{0};
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
   std::vector<ClassifierSlot> classifiers_;
   std::optional<Frame> prev_frame_;

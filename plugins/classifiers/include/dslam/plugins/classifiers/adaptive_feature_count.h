@@ -31,6 +31,7 @@ class AdaptiveFeatureCount : public KeypointClassifier {
   void configure(const Params& p, const PluginContext& ctx) override;
   void classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) override;
   int requestedFeatureCount() const override { return increment_ > 0 ? base_ + increment_ : 0; }
+  bool labelsKeypoints() const override { return false; }  ///< feature count only
   void reset() override;
 
   /** Filtered area fraction of the last classified frame. */
