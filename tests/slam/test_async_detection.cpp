@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 
@@ -22,7 +23,8 @@
 namespace dslam_test {
 
 /** A detector that, after its first call, blocks until the test opens the
- *  gate (at most 30 s): a System that waited for it would stall. */
+ *  gate (at most 30 s): a System that waited for it would stall. Its
+ *  output: `boxes(frame)`, by default one fixed person box. */
 class GatedDetector : public dslam::Detector {
   DEFINE_MRPT_OBJECT(GatedDetector, dslam_test)
  public:
@@ -32,9 +34,11 @@ class GatedDetector : public dslam::Detector {
     std::unique_lock<std::mutex> lk(m);
     if (calls++ > 0) timed_out |= !cv.wait_for(lk, std::chrono::seconds(30), [this] { return open; });
     dslam::Detections d;
-    d.boxes.push_back({cv::Rect2f(100, 60, 80, 120), 1, 0.9f, f.index});
+    d.boxes = boxes(f);
     return d;
   }
+  std::function<std::vector<dslam::BoundingBox>(const dslam::SensorFrame&)> boxes =
+      [](const dslam::SensorFrame& f) { return std::vector<dslam::BoundingBox>{{cv::Rect2f(100, 60, 80, 120), 1, 0.9f, f.index}}; };
   void release() {
     std::lock_guard<std::mutex> lk(m);
     open = true;
@@ -77,36 +81,8 @@ class BoxProbe : public dslam::KeypointClassifier {
   std::vector<int> ages;
 };
 
-/** Frame 0: nothing. Later frames: a person box over the left half of the
- *  image (reversed: the box on frame 0 only). Its second call (frame 1)
- *  blocks until the test opens the gate, so frames 1.. are given frame 0's
- *  detection meanwhile. */
-class LeftHalfDetector : public dslam::Detector {
-  DEFINE_MRPT_OBJECT(LeftHalfDetector, dslam_test)
- public:
-  std::string description() const override { return "test: left half is a person from frame 1 on"; }
-  unsigned outputs() const override { return dslam::kBoxes; }
-  dslam::Detections detect(const dslam::SensorFrame& f) override {
-    std::unique_lock<std::mutex> lk(m);
-    if (calls++ == 1) timed_out |= !cv.wait_for(lk, std::chrono::seconds(30), [this] { return open; });
-    dslam::Detections d;
-    if ((f.index > 0) != reversed) d.boxes.push_back({cv::Rect2f(0, 0, f.image.cols / 2.f, static_cast<float>(f.image.rows)), 1, 0.9f, -1});
-    return d;
-  }
-  void release() {
-    std::lock_guard<std::mutex> lk(m);
-    open = true;
-    cv.notify_all();
-  }
-  std::mutex m;
-  std::condition_variable cv;
-  bool open = false, timed_out = false, reversed = false;
-  int calls = 0;
-};
-
 }  // namespace dslam_test
 
-IMPLEMENTS_MRPT_OBJECT(LeftHalfDetector, dslam::Detector, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(GatedDetector, dslam::Detector, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(Probe, dslam::KeypointClassifier, dslam_test)
 IMPLEMENTS_MRPT_OBJECT(BoxProbe, dslam::KeypointClassifier, dslam_test)
@@ -208,14 +184,21 @@ struct KeyFrameLabels {
   size_t awaiting = 0;  ///< keyframes registered for labels that local mapping never took
 };
 
-/** Crowd-SLAM's box filter behind LeftHalfDetector, asynchronous: the
+/** Crowd-SLAM's box filter behind a left-half person detector, asynchronous: the
  *  detector blocks on frame 1 until frame 37 was tracked, then runs. */
 KeyFrameLabels runLeftHalf(bool redetect, bool& timed_out, bool reversed = false) {
   // The camera of walking_xyz moves enough for keyframes in the first 40 frames.
   auto ds = test::openDataset("dslam::TumDataset",
                               test::cat("path: ", test::syntheticSequence("walking_xyz", 150, 320, 240), "\n"));
-  auto det = std::make_shared<dslam_test::LeftHalfDetector>();
-  det->reversed = reversed;
+  // Frame 0: nothing, later frames a person box over the left half of the
+  // image (reversed: the box on frame 0 only). The detector blocks on frame
+  // 1, so frames 1.. are given frame 0's detection meanwhile.
+  auto det = std::make_shared<dslam_test::GatedDetector>();
+  det->boxes = [reversed](const SensorFrame& f) {
+    std::vector<BoundingBox> b;
+    if ((f.index > 0) != reversed) b.push_back({cv::Rect2f(0, 0, f.image.cols / 2.f, static_cast<float>(f.image.rows)), 1, 0.9f, -1});
+    return b;
+  };
   SlamParams sp;
   sp.place.enabled = false;
   auto sys = std::make_unique<System>(*ds->camera(), sp, test::defaultBackend(), config::Mode::Parallel);
