@@ -57,8 +57,8 @@ class KeyFrame {
   const cv::Mat descriptors;
   const std::vector<float> depth, u_right;
   /** Classifier labels. Fixed once local mapping has taken the keyframe;
-   *  before that a late detection of its own image may raise some to
-   *  dynamic (System, under the map's update_mutex). */
+   *  before that the late detection of its own image may relabel it
+   *  (System::relabelKeyFrame, under the map's update_mutex). */
   std::vector<KeypointMeta> meta;
   const CameraIntrinsics cam;
   const std::shared_ptr<const ScaleLevels> scale;

@@ -59,9 +59,10 @@ class LocalMapper : public KeyFrameSink {
   void setKeyFrameCallback(std::function<void(const KeyFramePtr&)> cb) { on_kf_ = std::move(cb); }
   /** Called first for every keyframe, in the mapping thread, before it
    *  takes the map lock: may wait (System: for the detection of the
-   *  keyframe's own image when detection is asynchronous) and may label
-   *  keypoints dynamic and drop their points, under the map's update_mutex,
-   *  before the keyframe's points are observed and new points triangulated. */
+   *  keyframe's own image when detection is asynchronous) and may change
+   *  its keypoints' labels and drop points of keypoints that became
+   *  dynamic, under the map's update_mutex, before the keyframe's points are
+   *  observed and new points triangulated. */
   void setKeyFrameGate(std::function<void(KeyFrame&)> fn) { gate_fn_ = std::move(fn); }
 
   // KeyFrameSink
