@@ -184,6 +184,29 @@ TEST(Frontend, MonocularFrameFeatureCountAndMask) {
   EXPECT_NE(fe.imageBounds().min_x, 0.0f);  // distorted camera
 }
 
+// on_gray gets the frame's grey image once, before feature extraction (the
+// asynchronous detection carry starts from it on another thread).
+TEST(Frontend, GreyImageCallbackComesBeforeTheKeypoints) {
+  CameraModel cam = tumFr1();
+  cam.sensor = SensorType::Monocular;
+  FeatureFrontend fe(cam);
+  SensorFrame in;
+  in.index = 3;
+  in.image = test::texturedScene(cv::Size(640, 480), 23);
+  int calls = 0;
+  cv::Mat seen;
+  const Frame f = fe.process(in, cv::Mat(), [&](const cv::Mat& g) {
+    calls++;
+    seen = g;
+    EXPECT_EQ(fe.lastTimings().extract_ms, 0.0);  // not extracted yet
+  });
+  EXPECT_EQ(calls, 1);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(seen.data, f.gray.data);
+  EXPECT_EQ(cv::norm(seen, toGray(in.image, cam.rgb_order), cv::NORM_INF), 0.0);
+  EXPECT_GT(f.size(), 100u);
+}
+
 TEST(Frontend, SyntheticRectifiedStereoFrame) {
   CameraModel cam = *cameraPreset("kitti_00_02");
   cam.left.width = cam.right.width = 640;

@@ -13,8 +13,10 @@
 #include "dslam/core/detector.h"
 #include "dslam/core/keypoint_classifier.h"
 #include "dslam/core/registry.h"
+#include "dslam/features/frontend.h"
 #include "dslam/map/map.h"
 #include "dslam/map/map_point.h"
+#include "dslam/slam/detection_carry.h"
 #include "dslam/slam/system.h"
 #include "plugin_util.h"
 #include "synth_cache.h"
@@ -173,6 +175,43 @@ TEST(AsyncDetection, CarryNoneLeavesOlderDetectionsInPlace) {
     EXPECT_EQ(probe->boxes[k][0], cv::Rect2f(100, 60, 80, 120)) << "frame " << k << ": moved although carry: none";
     EXPECT_EQ(probe->ages[k], static_cast<int>(k));
   }
+}
+
+// The carry runs on the slot's own thread while ORB runs on the tracking
+// thread: each frame gets exactly what carrying the previous frame's
+// detection to it in line gives.
+TEST(AsyncDetection, CarriedOnItsOwnThreadAsInLine) {
+  auto ds = test::openDataset("dslam::TumDataset",
+                              test::cat("path: ", test::syntheticSequence("walking_xyz", 150, 320, 240), "\n"));
+  auto det = std::make_shared<dslam_test::GatedDetector>();
+  det->boxes = [](const SensorFrame& f) {
+    return std::vector<BoundingBox>{{cv::Rect2f(120, 40, 90, 160), 1, 0.9f, f.index}};
+  };
+  auto probe = std::make_shared<dslam_test::BoxProbe>();
+  const size_t n = 12;
+  {
+    auto sys = probedSystem(*ds, det, probe, System::DetectionMode::Async);
+    for (size_t i = 0; i < n; i++) sys->track(ds->read(i));  // the detector is blocked on frame 1
+    det->release();
+    sys->shutdown();
+  }
+  ASSERT_EQ(probe->boxes.size(), n);
+  const bool rgb = ds->camera()->rgb_order;
+  Detections d;
+  d.valid = true;
+  d.boxes = {{cv::Rect2f(120, 40, 90, 160), 1, 0.9f, 0}};
+  cv::Mat prev = toGray(ds->read(0).image, rgb);
+  int moved = 0;
+  for (size_t k = 1; k < n; k++) {
+    const cv::Mat cur = toGray(ds->read(k).image, rgb);
+    d = carryDetections(d, prev, cur, static_cast<int>(k));
+    prev = cur;
+    ASSERT_EQ(probe->boxes[k].size(), 1u) << k;
+    EXPECT_EQ(probe->boxes[k][0], d.boxes[0].box) << "frame " << k;
+    EXPECT_EQ(probe->ages[k], static_cast<int>(k));
+    moved += d.boxes[0].box != cv::Rect2f(120, 40, 90, 160);
+  }
+  EXPECT_GT(moved, 5) << "the camera moves: the box must move with the image";
 }
 
 namespace {

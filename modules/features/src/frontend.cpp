@@ -244,7 +244,8 @@ void FeatureFrontend::setFeatureCount(int n) {
 
 int FeatureFrontend::featureCount() const { return left_.featureCount(); }
 
-Frame FeatureFrontend::process(const SensorFrame& in, const cv::Mat& mask) {
+Frame FeatureFrontend::process(const SensorFrame& in, const cv::Mat& mask,
+                               const std::function<void(const cv::Mat&)>& on_gray) {
   const auto t0 = std::chrono::steady_clock::now();
   timings_ = FrontendTimings{};
   stereo_stats_ = StereoMatchStats{};
@@ -295,6 +296,7 @@ Frame FeatureFrontend::process(const SensorFrame& in, const cv::Mat& mask) {
     }
   }
   timings_.gray_ms = msSince(t0);
+  if (on_gray) on_gray(f.gray);
 
   const auto t1 = std::chrono::steady_clock::now();
   std::vector<cv::KeyPoint> kps_r;

@@ -143,6 +143,37 @@ struct System::DetectorSlot {
     }
   }};
 
+  /** Parallel mode, asynchronous with flow: `last` is carried to the new
+   *  frame on this thread while the tracking thread extracts ORB features
+   *  (the carry needs only the frame's grey image). */
+  struct CarryJob {
+    Detections d;
+    cv::Mat from, to;
+    int age = 0;
+    std::shared_ptr<std::promise<Result>> result;
+  };
+  Worker<CarryJob> carrier{[](CarryJob& j) {
+    try {
+      const double t0 = nowSeconds();
+      Detections r = carryDetections(j.d, j.from, j.to, j.age);
+      j.result->set_value({std::move(r), (nowSeconds() - t0) * 1e3});
+    } catch (...) {
+      j.result->set_exception(std::current_exception());
+    }
+  }};
+  std::future<Result> carried;  ///< this frame's carried detection (carrier running)
+
+  void startCarry(const cv::Mat& gray, int frame_index) {
+    CarryJob j;
+    j.d = last;
+    j.from = last_gray;
+    j.to = gray;
+    j.age = frame_index - last.frame_index;
+    j.result = std::make_shared<std::promise<Result>>();
+    carried = j.result->get_future();
+    carrier.push(std::move(j));
+  }
+
   std::shared_future<Result> push(const SensorFrame& f) {
     Job j;
     j.frame = f;
@@ -178,6 +209,7 @@ struct System::DetectorSlot {
   }
   /** Waits for every job this slot started (error paths, shutdown). */
   void waitAll() {
+    if (carried.valid()) carried.wait();
     if (pending.valid()) pending.wait();
     for (const auto& l : late) l.result.wait();
   }
@@ -388,6 +420,7 @@ void System::addDetector(const std::string& name, std::shared_ptr<Detector> det,
     DSLAM_LOG(Info, "detector '" << name << "': asynchronous, a new detection at most every " << s->every
                                  << " frames");
   if (parallel) s->worker.start();
+  if (s->async && s->flow) s->carrier.start();
   detectors_.push_back(std::move(s));
 }
 
@@ -414,6 +447,7 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
   for (auto& sp : detectors_) {
     auto& s = *sp;
     s.submitted_now = s.fresh = s.ran = false;
+    s.carried = {};
     if (s.async) {
       // The first frame waits for its detection: a map must not start on undetected movers.
       if (s.pending.valid() && (s.pendingReady() || s.last_gray.empty())) {
@@ -442,11 +476,17 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     s.ran = true;
     if (mode_ == config::Mode::Parallel) s.submit(in);
   }
+  // Asynchronous detections are carried to this frame on their carrier
+  // threads while this one extracts ORB features.
+  auto start_carry = [&](const cv::Mat& gray) {
+    for (auto& sp : detectors_)
+      if (sp->carrier.running() && !sp->last_gray.empty()) sp->startCarry(gray, fi);
+  };
   Frame f;
   try {
     {
       auto t = timer_.scope("orb", fi);
-      f = frontend_->process(in);
+      f = frontend_->process(in, cv::Mat(), start_carry);
     }
     for (size_t d = 0; d < detectors_.size(); d++) {
       auto& s = *detectors_[d];
@@ -476,9 +516,17 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
       } else if (!s.last_gray.empty()) {
         // Async, or a frame between two runs of an every-N detector: the
         // latest detections carried from the image they describe to this one.
-        auto t = timer_.scope("detection_carry", fi);
         const int age = fi - s.last.frame_index;
-        if (s.flow) {
+        if (s.carried.valid()) {
+          std::pair<Detections, double> r;
+          {
+            auto t = timer_.scope("detection_carry_wait", fi);
+            r = s.carried.get();  // rethrows the carry's error
+          }
+          dets[d] = std::move(r.first);
+          timer_.add("detection_carry", fi, r.second);
+        } else if (s.flow) {
+          auto t = timer_.scope("detection_carry", fi);
           dets[d] = carryDetections(s.last, s.last_gray, f.gray, age);
         } else {
           dets[d] = s.last;
@@ -505,7 +553,10 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     }
   } catch (...) {
     // Detector threads still work on their copies of the frame: let them finish.
-    for (auto& s : detectors_) s->waitAll();
+    for (auto& s : detectors_) {
+      s->waitAll();
+      s->carried = {};
+    }
     throw;
   }
   return f;

@@ -3,6 +3,7 @@
  *  Feature front end: SensorFrame -> dslam::Frame (grey conversion, stereo
  *  rectification of unrectified rigs, ORB extraction, keypoint undistortion,
  *  RGB-D depth / stereo matches with the (virtual) right coordinate). */
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -89,8 +90,12 @@ class FeatureFrontend {
    *  keypoints_un, descriptors, depth and u_right (-1 where unknown), meta
    *  (all Static) and requested_features. `mask` (optional, CV_8U, input
    *  image size, 0 = no features) is rectified with the images if needed.
-   *  Throws DataError naming the frame for missing/mismatched images. */
-  Frame process(const SensorFrame& in, const cv::Mat& mask = cv::Mat());
+   *  Throws DataError naming the frame for missing/mismatched images.
+   *  `on_gray`, if given, is called with the grey (rectified) left image as
+   *  soon as it exists, before feature extraction: work that needs only the
+   *  image can start on another thread meanwhile. */
+  Frame process(const SensorFrame& in, const cv::Mat& mask = cv::Mat(),
+                const std::function<void(const cv::Mat&)>& on_gray = {});
 
   /** Feature count for the next frames (left and right extractors). */
   void setFeatureCount(int n);
