@@ -18,6 +18,20 @@ namespace {
 
 CameraModel tumFr1() { return *cameraPreset("tum_fr1"); }
 
+CameraModel monoFr1() {
+  CameraModel cam = tumFr1();
+  cam.sensor = SensorType::Monocular;
+  return cam;
+}
+
+/** A 640x480 textured monocular frame. */
+SensorFrame texturedFrame(int index) {
+  SensorFrame in;
+  in.index = index;
+  in.image = test::texturedScene(cv::Size(640, 480), 23);
+  return in;
+}
+
 /** Depth plane z = 1 + 0.002 u + 0.003 v with an invalid (0) box and a NaN box. */
 cv::Mat planeDepth(cv::Size s) {
   cv::Mat d(s, CV_32FC1);
@@ -157,12 +171,9 @@ TEST(Frontend, RgbdFrame) {
 }
 
 TEST(Frontend, MonocularFrameFeatureCountAndMask) {
-  CameraModel cam = tumFr1();
-  cam.sensor = SensorType::Monocular;
+  const CameraModel cam = monoFr1();
   FeatureFrontend fe(cam);
-  SensorFrame in;
-  in.index = 0;
-  in.image = test::texturedScene(cv::Size(640, 480), 23);
+  const SensorFrame in = texturedFrame(0);
   fe.setFeatureCount(600);
   EXPECT_EQ(fe.featureCount(), 600);
   cv::Mat mask(480, 640, CV_8UC1, cv::Scalar(255));
@@ -187,12 +198,9 @@ TEST(Frontend, MonocularFrameFeatureCountAndMask) {
 // on_gray gets the frame's grey image once, before feature extraction (the
 // asynchronous detection carry starts from it on another thread).
 TEST(Frontend, GreyImageCallbackComesBeforeTheKeypoints) {
-  CameraModel cam = tumFr1();
-  cam.sensor = SensorType::Monocular;
+  const CameraModel cam = monoFr1();
   FeatureFrontend fe(cam);
-  SensorFrame in;
-  in.index = 3;
-  in.image = test::texturedScene(cv::Size(640, 480), 23);
+  const SensorFrame in = texturedFrame(3);
   int calls = 0;
   cv::Mat seen;
   const Frame f = fe.process(in, cv::Mat(), [&](const cv::Mat& g) {
