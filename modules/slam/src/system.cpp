@@ -91,7 +91,8 @@ namespace dslam {
 // concurrently with ORB extraction; the result (or the exception) comes back
 // through a promise. Sync: the tracking thread waits for it. Async: it takes
 // the latest finished result and carries it to the current frame by optical
-// flow (detection_carry.h); a new job starts whenever the worker is free and
+// flow (detection_carry.h; on the slot's carrier thread while the tracking
+// thread extracts ORB features); a new job starts whenever the worker is free and
 // `every` frames have passed since the last one started (every: 1 = as soon
 // as it is free). A frame that becomes a keyframe with a carried detection
 // is detected again right away (`keyframes: redetect`): local mapping waits
