@@ -133,15 +133,24 @@ struct System::DetectorSlot {
   bool fresh = false;  ///< async: a new detection arrived in this frame (take())
   bool ran = false;    ///< sync: the detector ran on this frame
   int64_t last_submit = -1000000;  ///< frame count when the last asynchronous job started
-  Worker<Job> worker{[this](Job& j) {
+  /** Fulfils `p` with the detections `work()` returns and the time it
+   *  took, or with its exception (the worker threads' jobs). */
+  template <class Work>
+  static void fulfil(std::promise<Result>& p, Work&& work) {
     try {
       const double t0 = nowSeconds();
+      Detections d = work();
+      p.set_value({std::move(d), (nowSeconds() - t0) * 1e3});
+    } catch (...) {
+      p.set_exception(std::current_exception());
+    }
+  }
+  Worker<Job> worker{[this](Job& j) {
+    fulfil(*j.result, [&] {
       Detections d = det->detect(j.frame);
       d.frame_index = j.frame.index;
-      j.result->set_value({std::move(d), (nowSeconds() - t0) * 1e3});
-    } catch (...) {
-      j.result->set_exception(std::current_exception());
-    }
+      return d;
+    });
   }};
 
   /** Parallel mode, asynchronous with flow: `last` is carried to the new
@@ -153,15 +162,8 @@ struct System::DetectorSlot {
     int age = 0;
     std::shared_ptr<std::promise<Result>> result;
   };
-  Worker<CarryJob> carrier{[](CarryJob& j) {
-    try {
-      const double t0 = nowSeconds();
-      Detections r = carryDetections(j.d, j.from, j.to, j.age);
-      j.result->set_value({std::move(r), (nowSeconds() - t0) * 1e3});
-    } catch (...) {
-      j.result->set_exception(std::current_exception());
-    }
-  }};
+  Worker<CarryJob> carrier{
+      [](CarryJob& j) { fulfil(*j.result, [&] { return carryDetections(j.d, j.from, j.to, j.age); }); }};
   std::future<Result> carried;  ///< this frame's carried detection (carrier running)
 
   void startCarry(const cv::Mat& gray, int frame_index) {
@@ -554,10 +556,7 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     }
   } catch (...) {
     // Detector threads still work on their copies of the frame: let them finish.
-    for (auto& s : detectors_) {
-      s->waitAll();
-      s->carried = {};
-    }
+    for (auto& s : detectors_) s->waitAll();
     throw;
   }
   return f;
