@@ -37,7 +37,7 @@ dense::DenseEvalResult runAndEvaluate(const std::string& scene, const std::strin
 }  // namespace
 
 TEST(DenseE2E, StdynWalkingGhostRateWithAndWithoutTheMask) {
-  const std::string scene = test::syntheticSequence("walking_xyz", 150, 320, 240);
+  const std::string scene = test::syntheticSequence("walking_xyz", 150, 320, 240, /*stereo=*/true);
   // A fixed folder in the build tree: CI keeps the pictures of this run.
   const std::string out = std::string(DSLAM_TEST_BINARY_DIR) + "/test_output/dense_e2e";
   fs::remove_all(out);

@@ -60,7 +60,8 @@ std::pair<int, int> usableAndFeatureRange(const std::string& out_dir) {
 }  // namespace
 
 TEST(DynamicPipelines, WalkingXyzEveryVariantBeatsTheBaseline) {
-  const std::string scene = test::syntheticSequence("walking_xyz", 240, 640, 480);
+  // stereo: synthetic/stdyn_slam reads the folder as a KITTI stereo sequence.
+  const std::string scene = test::syntheticSequence("walking_xyz", 240, 640, 480, /*stereo=*/true);
   const RunSummary base = runOn("orbslam_baseline", scene);
   ASSERT_TRUE(base.ate_rmse);
   std::map<std::string, double> ate;

@@ -45,10 +45,14 @@ RunResult runSystem(DatasetSource& ds, const SlamParams& sp,
   return r;
 }
 
+/** One render for every test of this file; with right/ images for the
+ *  stereo test, the others read it as RGB-D. */
+std::string staticOffice() { return test::syntheticSequence("static_office", 150, 640, 480, /*stereo=*/true); }
+
 }  // namespace
 
 TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
-  const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
+  const std::string dir = staticOffice();
   auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   const RunResult r = runSystem(*ds, SlamParams{});
   std::cout << "static_office RGB-D: " << r.tracked << "/" << r.frames << " tracked, ATE " << r.ate << " m\n";
@@ -58,7 +62,7 @@ TEST(SlamE2E, RgbdStaticOfficeMeetsAteTarget) {
 }
 
 TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
-  const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
+  const std::string dir = staticOffice();
   // The synthetic folder doubles as a KITTI-style stereo sequence (rgb/ + right/ + calib.txt + poses.txt).
   auto ds = test::openDataset("dslam::KittiDataset", test::cat("path: ", dir, "\nleft_dir: rgb\nright_dir: right\n"));
   ASSERT_EQ(ds->sensor(), SensorType::Stereo);
@@ -71,7 +75,7 @@ TEST(SlamE2E, StereoStaticOfficeMeetsAteTarget) {
 }
 
 TEST(SlamE2E, SequentialModeIsDeterministic) {
-  const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
+  const std::string dir = staticOffice();
   auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   SlamParams sp;
   const RunResult a = runSystem(*ds, sp);
@@ -84,7 +88,7 @@ TEST(SlamE2E, SequentialModeIsDeterministic) {
 }
 
 TEST(SlamE2E, BadFramesAreLostNotFatal) {
-  const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
+  const std::string dir = staticOffice();
   auto ds = test::openDataset("dslam::TumDataset", test::cat("path: ", dir, "\n"));
   // Frames 60-64: all-zero depth; 65-69: black image; 70-74: no depth at all.
   std::vector<int> state(ds->size(), -1);
@@ -111,7 +115,7 @@ TEST(SlamE2E, BadFramesAreLostNotFatal) {
 }
 
 TEST(SlamE2E, RunCommandWritesOutputsAndReportsAte) {
-  const std::string dir = test::syntheticSequence("static_office", 150, 640, 480);
+  const std::string dir = staticOffice();
   const std::string out = test::tempDir("run");
   const auto r = test::runDslam(test::cat("run ", test::source("config/pipelines/orbslam_baseline.yaml"), " --dataset ",
                                           dir, " --out ", out, " --max-frames 60 --no-progress"));

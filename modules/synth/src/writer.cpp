@@ -33,11 +33,20 @@ std::string stampName(double t) {
   return b;
 }
 
+/** " (N MB free on its disk)" for a failed write: a full disk is the usual
+ *  cause when a long render stops half-way. */
+std::string freeSpace(const std::string& path) {
+  std::error_code ec;
+  const fs::space_info s = fs::space(fs::path(path).parent_path(), ec);
+  if (ec) return "";
+  return " (" + std::to_string(s.available >> 20) + " MB free on its disk)";
+}
+
 void writeText(const std::string& path, const std::string& text) {
   std::ofstream f(path, std::ios::binary);
-  if (!f) throw DataError("cannot write " + path);
+  if (!f) throw DataError("cannot write " + path + freeSpace(path));
   f << text;
-  if (!f) throw DataError("write failed: " + path);
+  if (!f) throw DataError("write failed: " + path + freeSpace(path));
 }
 
 /** PNG with OpenCV's default zlib level, run-length strategy and the Sub row
@@ -48,7 +57,7 @@ void writeText(const std::string& path, const std::string& text) {
  *  instructions per colour image and 33 instead of 39 per depth image. */
 void writePng(const std::string& path, const cv::Mat& m) {
   if (!cv::imwrite(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE}))
-    throw DataError("cannot write image " + path);
+    throw DataError("cannot write image " + path + freeSpace(path));
 }
 
 /** Panoptic id image (CV_32S) -> RGB PNG (stored BGR for OpenCV). */
