@@ -166,6 +166,38 @@ TEST(DetectionCarry, HoldKeepsAMissedBoxAndMovesItWithItsObject) {
   EXPECT_EQ(seen, (std::vector<int>{21, 18}));
 }
 
+TEST(DetectionCarry, HoldKeepsTheWholeBoxWhenOnlyAFragmentOfItIsReported) {
+  Fixture fx;
+  const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
+  Detections prev;
+  prev.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  // The detector sees only the legs: 45 % of the box, all of it inside.
+  Detections cur;
+  cur.boxes.push_back({cv::Rect2f(205, 255, 108, 100), 1, 0.21f, -1});
+  std::vector<int> seen = holdMissedBoxes(prev, a, {15}, cur, a, 16, 16, /*hold=*/5, true);
+  ASSERT_EQ(cur.boxes.size(), 2u) << "the fragment and the whole person";
+  EXPECT_NEAR(cur.boxes[1].box.x, 200, 1.0);
+  EXPECT_NEAR(cur.boxes[1].box.height, 200, 2.0);
+  EXPECT_EQ(seen, (std::vector<int>{16, 15}));
+  // Larger than fragment_area of it: the person reported again, it replaces the held box.
+  Detections again;
+  again.boxes.push_back({cv::Rect2f(205, 190, 115, 160), 1, 0.6f, -1});  // 77 %
+  holdMissedBoxes(prev, a, {15}, again, a, 16, 16, 5, true);
+  EXPECT_EQ(again.boxes.size(), 1u);
+  // Small but mostly outside it (under fragment_inside): another object of the class, it replaces as before.
+  Detections beside;
+  beside.boxes.push_back({cv::Rect2f(250, 250, 100, 120), 1, 0.6f, -1});  // IoU 0.24, 58 % inside
+  holdMissedBoxes(prev, a, {15}, beside, a, 16, 16, 5, true);
+  EXPECT_EQ(beside.boxes.size(), 1u);
+  // fragment_area 0: every overlapping box replaces (the rule off).
+  Detections off;
+  off.boxes.push_back({cv::Rect2f(205, 255, 108, 100), 1, 0.21f, -1});
+  HoldParams hp;
+  hp.fragment_area = 0;
+  holdMissedBoxes(prev, a, {15}, off, a, 16, 16, 5, true, hp);
+  EXPECT_EQ(off.boxes.size(), 1u);
+}
+
 TEST(DetectionCarry, HoldEndsAfterItsFramesAndWhenTheClassIsReportedThere) {
   Fixture fx;
   const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});

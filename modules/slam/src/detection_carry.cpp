@@ -247,7 +247,7 @@ Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::M
 
 std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img, const std::vector<int>& prev_seen,
                                  Detections& cur, const cv::Mat& img, int frame, int cur_seen, int hold, bool flow,
-                                 float min_iou, const CarryParams& p) {
+                                 const HoldParams& hp, const CarryParams& p) {
   std::vector<int> seen(cur.boxes.size(), cur_seen);
   if (hold <= 0 || !prev.valid) return seen;
   Detections held;
@@ -256,7 +256,12 @@ std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img
     if (frame - prev_seen[j] > hold) continue;
     const BoundingBox& b = prev.boxes[j];
     bool reported = false;
-    for (const auto& c : cur.boxes) reported |= c.class_id == b.class_id && iou(c.box, b.box) >= min_iou;
+    for (const auto& c : cur.boxes) {
+      if (c.class_id != b.class_id || iou(c.box, b.box) < hp.min_iou) continue;
+      const float area = c.box.area();
+      const bool fragment = area <= hp.fragment_area * b.box.area() && (c.box & b.box).area() >= hp.fragment_inside * area;
+      reported |= !fragment;
+    }
     if (reported) continue;
     held.boxes.push_back(b);
     held_seen.push_back(prev_seen[j]);

@@ -44,18 +44,29 @@ RegionMotion regionMotion(const cv::Mat& from, const cv::Mat& to, const cv::Rect
 Detections carryDetections(const Detections& d, const cv::Mat& from, const cv::Mat& to, int age,
                            const CarryParams& p = {});
 
+/** When a new detection replaces a box that `hold` keeps. */
+struct HoldParams {
+  float min_iou = 0.1f;  ///< a new box of the class overlapping a held one this much replaces it...
+  /// ...unless it is a fragment of it: at most this fraction of its area and
+  /// at least `fragment_inside` of the new box inside it. Then both are kept:
+  /// Yolo-Fastest reports only the legs of a walking person on some frames
+  /// (walking_rpy frame 202: 132 x 179 px inside the 153 x 294 px person).
+  float fragment_area = 0.7f;
+  float fragment_inside = 0.8f;
+};
+
 /** `hold:` of a detector, which keeps boxes it stops reporting for a few
  *  frames (small detectors flicker). `prev` describes image `prev_img`;
  *  prev_seen[j] is the frame at which the detector last reported box j.
  *  Each box of `prev` that was reported at most `hold` frames before
- *  `frame` and that no box of `cur` of the same class overlaps (IoU >=
- *  `min_iou`, `cur` describing image `img`) is moved to `img` (optical flow
- *  when `flow`, else left in place) and appended to `cur`. Returns the
+ *  `frame` and that no box of `cur` of the same class replaces (HoldParams;
+ *  `cur` describing image `img`) is moved to `img` (optical flow when
+ *  `flow`, else left in place) and appended to `cur`. Returns the
  *  last-reported frame of each box of the result: `cur_seen` for cur's own
  *  boxes, prev_seen for the held ones. */
 std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img, const std::vector<int>& prev_seen,
                                  Detections& cur, const cv::Mat& img, int frame, int cur_seen, int hold, bool flow,
-                                 float min_iou = 0.1f, const CarryParams& p = {});
+                                 const HoldParams& hp = {}, const CarryParams& p = {});
 
 /** Removes the boxes of `d` last reported more than `hold` frames before
  *  `frame` (seen[j], kept aligned with d.boxes). */
