@@ -39,6 +39,13 @@ struct Fixture {
   cv::Mat bg = texture({640, 480}, 1), obj = texture({120, 200}, 2);
 };
 
+/** The fixture's object as a detected person, where scene(.., {200, 150}) puts it. */
+Detections personDetection() {
+  Detections d;
+  d.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  return d;
+}
+
 TEST(DetectionCarry, BoxMovesWithItsObject) {
   Fixture fx;
   const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
@@ -169,40 +176,37 @@ TEST(DetectionCarry, HoldKeepsAMissedBoxAndMovesItWithItsObject) {
 TEST(DetectionCarry, HoldKeepsTheWholeBoxWhenOnlyAFragmentOfItIsReported) {
   Fixture fx;
   const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
-  Detections prev;
-  prev.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  const Detections prev = personDetection();
   // The detector sees only the legs: 45 % of the box, all of it inside.
+  const cv::Rect2f legs(205, 255, 108, 100);
   Detections cur;
-  cur.boxes.push_back({cv::Rect2f(205, 255, 108, 100), 1, 0.21f, -1});
+  cur.boxes.push_back({legs, 1, 0.21f, -1});
   std::vector<int> seen = holdMissedBoxes(prev, a, {15}, cur, a, 16, 16, /*hold=*/5, true);
   ASSERT_EQ(cur.boxes.size(), 2u) << "the fragment and the whole person";
   EXPECT_NEAR(cur.boxes[1].box.x, 200, 1.0);
   EXPECT_NEAR(cur.boxes[1].box.height, 200, 2.0);
   EXPECT_EQ(seen, (std::vector<int>{16, 15}));
+  // Boxes after holding, when the detector reports only `box`.
+  auto held = [&](const cv::Rect2f& box, const HoldParams& hp = {}) {
+    Detections c;
+    c.boxes.push_back({box, 1, 0.6f, -1});
+    holdMissedBoxes(prev, a, {15}, c, a, 16, 16, 5, true, hp);
+    return c.boxes.size();
+  };
   // Larger than fragment_area of it: the person reported again, it replaces the held box.
-  Detections again;
-  again.boxes.push_back({cv::Rect2f(205, 190, 115, 160), 1, 0.6f, -1});  // 77 %
-  holdMissedBoxes(prev, a, {15}, again, a, 16, 16, 5, true);
-  EXPECT_EQ(again.boxes.size(), 1u);
+  EXPECT_EQ(held(cv::Rect2f(205, 190, 115, 160)), 1u);  // 77 %
   // Small but mostly outside it (under fragment_inside): another object of the class, it replaces as before.
-  Detections beside;
-  beside.boxes.push_back({cv::Rect2f(250, 250, 100, 120), 1, 0.6f, -1});  // IoU 0.24, 58 % inside
-  holdMissedBoxes(prev, a, {15}, beside, a, 16, 16, 5, true);
-  EXPECT_EQ(beside.boxes.size(), 1u);
+  EXPECT_EQ(held(cv::Rect2f(250, 250, 100, 120)), 1u);  // IoU 0.24, 58 % inside
   // fragment_area 0: every overlapping box replaces (the rule off).
-  Detections off;
-  off.boxes.push_back({cv::Rect2f(205, 255, 108, 100), 1, 0.21f, -1});
-  HoldParams hp;
-  hp.fragment_area = 0;
-  holdMissedBoxes(prev, a, {15}, off, a, 16, 16, 5, true, hp);
-  EXPECT_EQ(off.boxes.size(), 1u);
+  HoldParams off;
+  off.fragment_area = 0;
+  EXPECT_EQ(held(legs, off), 1u);
 }
 
 TEST(DetectionCarry, HoldEndsAfterItsFramesAndWhenTheClassIsReportedThere) {
   Fixture fx;
   const cv::Mat a = scene(fx.bg, fx.obj, {200, 150});
-  Detections prev;
-  prev.boxes.push_back({cv::Rect2f(200, 150, 120, 200), 1, 0.9f, -1});
+  const Detections prev = personDetection();
   Detections cur;
   auto seen = holdMissedBoxes(prev, a, {10}, cur, a, 16, 16, /*hold=*/5, true);
   EXPECT_TRUE(cur.boxes.empty()) << "reported 6 frames ago, held 5";
