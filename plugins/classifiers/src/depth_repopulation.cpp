@@ -51,6 +51,12 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
                "other boxes are widened by this fraction of their width / height on each side before their overlap "
                "is left out (box jitter of real detectors; chosen, 0 = the boxes as detected)",
                0, 1),
+      P_enum("overlap_class", "front", {"front", "first"},
+             "class of a keypoint on the objects of two overlapping boxes: front (default) = not the class of a box "
+             "whose object it is in front of (nearer than that box's object depth by more than front_margin: an "
+             "occluder, e.g. a plant in front of a desk), else the box listed first; first = the box listed first "
+             "(the earlier rule; measured in docs/classifiers.md)"),
+      P_double("front_margin", 0.1, "overlap_class front: metres in front of a box's object depth (chosen)", 0, 100),
       P_bool("exclude_overlap", true, "leave pixels shared by overlapping boxes out of the statistics (Changing-SLAM 4.1)"),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
@@ -73,6 +79,8 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   see_through_classes_ = cls::cocoIdList(p, "see_through_classes");
   overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
+  overlap_front_ = p.getString("overlap_class") == "front";
+  front_margin_ = p.getDouble("front_margin");
   const std::string oc = p.getString("occlusion_check");
   occlusion_ = oc == "dynamic" ? Occlusion::Dynamic : oc == "none" ? Occlusion::None : Occlusion::All;
   stride_ = static_cast<int>(p.getInt("pixel_stride"));
@@ -235,16 +243,22 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
   }
   if (sel.empty()) return;
 
-  // Decided label per keypoint (max over the boxes containing it).
-  std::vector<int8_t> decided(frame.size(), -1);
-  std::vector<KpReason> why(frame.size(), KpReason::None);
-  std::vector<int16_t> cls_of(frame.size(), -1);
-  auto decide = [&](size_t i, KpLabel l, KpReason r, int class_id) {
-    if (static_cast<int>(l) > decided[i]) {
-      decided[i] = static_cast<int8_t>(l);
-      why[i] = r;
-      cls_of[i] = static_cast<int16_t>(class_id);
-    }
+  // Decided label per keypoint (max over the boxes containing it). Between
+  // two boxes that both put a keypoint on their object, the first listed
+  // wins, unless (overlap_class: front) it is in front of that box's object
+  // and not of the other's.
+  struct Decision {
+    int8_t label = -1;
+    bool in_front = false;
+    int16_t class_id = -1;
+    KpReason why = KpReason::None;
+  };
+  std::vector<Decision> dec(frame.size());
+  auto decide = [&](size_t i, KpLabel l, KpReason r, int class_id, bool in_front = false) {
+    Decision& x = dec[i];
+    const bool behind_other = overlap_front_ && static_cast<int>(l) == x.label && class_id >= 0 && x.class_id >= 0 &&
+                              x.in_front && !in_front;
+    if (static_cast<int>(l) > x.label || behind_other) x = {static_cast<int8_t>(l), in_front, static_cast<int16_t>(class_id), r};
   };
 
   const cv::Rect2f full(0, 0, static_cast<float>(img.width), static_cast<float>(img.height));
@@ -314,23 +328,24 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
       if (enough && validDepth(d) && d > st.object_depth + st.margin)
         decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // behind: not on the class
       else
-        decide(i, on_label, on_reason, bb.class_id);
+        decide(i, on_label, on_reason, bb.class_id, enough && validDepth(d) && d < st.object_depth - front_margin_);
     }
   }
 
   for (size_t i = 0; i < frame.size(); i++) {
-    if (decided[i] < 0) continue;
+    const Decision& x = dec[i];
+    if (x.label < 0) continue;
     KeypointMeta& m = frame.meta[i];
-    const auto l = static_cast<KpLabel>(decided[i]);
+    const auto l = static_cast<KpLabel>(x.label);
     if (m.reason == KpReason::None || m.reason == KpReason::InDynamicBox) {
       m.label = l;  // repopulation: may return a box-filtered keypoint to Static
-      m.reason = why[i];
+      m.reason = x.why;
     } else {
-      cls::raise(m, l, why[i]);
+      cls::raise(m, l, x.why);
     }
-    if (cls_of[i] >= 0)
-      m.class_id = cls_of[i];
-    else if (cls_of[i] <= -2 && m.class_id == -2 - cls_of[i])
+    if (x.class_id >= 0)
+      m.class_id = x.class_id;
+    else if (x.class_id <= -2 && m.class_id == -2 - x.class_id)
       m.class_id = -1;  // background behind the box's object, not on it
   }
 }

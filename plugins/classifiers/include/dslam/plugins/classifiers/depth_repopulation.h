@@ -68,6 +68,8 @@ class DepthRepopulation : public KeypointClassifier {
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
   bool exclude_overlap_ = true;
+  bool overlap_front_ = true;  ///< overlap_class: front
+  double front_margin_ = 0.1;
   enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
   std::map<int, double> margin_;
   double margin_default_ = 0.5;
