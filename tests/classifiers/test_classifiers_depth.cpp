@@ -275,6 +275,35 @@ TEST(DepthRepopulation, SharedAreaOfOverlappingBoxesIsIgnored) {
   EXPECT_FLOAT_EQ(without->lastStats()[0].min, 0.8f);  // B leaks into A's statistics
 }
 
+// A plant (COCO 64) in front of a desk (67, listed first): keypoints on the
+// plant inside both boxes are the plant's (overlap_class: front), not the
+// desk's as with overlap_class: first; the desk seen beside the plant,
+// inside the plant's box, stays the desk's.
+TEST(DepthRepopulation, KeypointInFrontOfABoxsObjectTakesTheOtherBoxsClass) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.5f));
+  depth(cv::Rect(200, 100, 300, 250)).setTo(3.0f);  // desk
+  depth(cv::Rect(190, 260, 80, 190)).setTo(2.0f);   // plant
+  Detections d;
+  d.boxes = {box(200, 100, 300, 250, 67), box(180, 250, 100, 200, 64)};
+  const std::vector<cv::Point2f> pts = {{240, 300}, {275, 255}, {400, 200}};  // plant in both; desk in both; desk
+  auto classes = [&](const std::string& yaml) {
+    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
+    Frame f = depthFrame(depth, pts);
+    rep->classify(f, d, {});
+    EXPECT_FLOAT_EQ(rep->lastStats()[0].object_depth, 3.0f);
+    EXPECT_FALSE(rep->lastStats()[0].occluded);
+    std::vector<int> c;
+    for (size_t i = 0; i < pts.size(); i++) {
+      EXPECT_EQ(f.meta[i].label, KpLabel::Movable) << yaml << " keypoint " << i;
+      c.push_back(f.meta[i].class_id);
+    }
+    return c;
+  };
+  EXPECT_EQ(classes(""), (std::vector<int>{64, 67, 67}));
+  EXPECT_EQ(classes("overlap_class: first"), (std::vector<int>{67, 67, 67}));
+  EXPECT_EQ(classes("front_margin: 1.5"), (std::vector<int>{67, 67, 67}));  // 1 m in front is within the margin
+}
+
 TEST(DepthRepopulation, KeypointDepthsWithoutDepthImage) {
   Detections d;
   d.boxes = {box(200, 100, 200, 300, 1)};
