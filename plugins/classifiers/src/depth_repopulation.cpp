@@ -258,7 +258,8 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     Decision& x = dec[i];
     const bool behind_other = overlap_front_ && static_cast<int>(l) == x.label && class_id >= 0 && x.class_id >= 0 &&
                               x.in_front && !in_front;
-    if (static_cast<int>(l) > x.label || behind_other) x = {static_cast<int8_t>(l), in_front, static_cast<int16_t>(class_id), r};
+    if (static_cast<int>(l) > x.label || behind_other)
+      x = {static_cast<int8_t>(l), in_front, static_cast<int16_t>(class_id), r};
   };
 
   const cv::Rect2f full(0, 0, static_cast<float>(img.width), static_cast<float>(img.height));
