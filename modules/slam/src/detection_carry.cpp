@@ -259,7 +259,8 @@ std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img
     for (const auto& c : cur.boxes) {
       if (c.class_id != b.class_id || iou(c.box, b.box) < hp.min_iou) continue;
       const float area = c.box.area();
-      const bool fragment = area <= hp.fragment_area * b.box.area() && (c.box & b.box).area() >= hp.fragment_inside * area;
+      const bool fragment =
+          area <= hp.fragment_area * b.box.area() && (c.box & b.box).area() >= hp.fragment_inside * area;
       reported |= !fragment;
     }
     if (reported) continue;
