@@ -144,6 +144,26 @@ TEST(Pipeline, DetectionModeAndCarryOfDetectors) {
   EXPECT_NE(e.find("'carry' applies to detectors only"), std::string::npos) << e;
 }
 
+TEST(Pipeline, WaitCoverageOfDetectors) {
+  register_builtin_plugins();
+  const auto pc = config::loadPipelineText(
+      "modules:\n  - name: people\n    type: dslam::HogPeopleDetector\n    wait_coverage: 0.5\n", "/cfg");
+  ASSERT_EQ(pc.modules.size(), 1u);
+  EXPECT_DOUBLE_EQ(pc.modules[0].wait_coverage, 0.5);
+  EXPECT_NE(pc.toYaml().find("    wait_coverage: 0.5\n"), std::string::npos) << pc.toYaml();
+  EXPECT_EQ(config::loadPipelineText("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n", "/cfg")
+                .modules[0]
+                .wait_coverage,
+            0.0);
+  for (const char* bad : {"1.5", "-0.1", "half", "''"}) {
+    const std::string e =
+        errorOf(std::string("modules:\n  - name: p\n    type: dslam::HogPeopleDetector\n    wait_coverage: ") + bad + "\n");
+    EXPECT_NE(e.find("key 'modules[0].wait_coverage': expected a number in [0, 1]"), std::string::npos) << bad << ": " << e;
+  }
+  const std::string e = errorOf("modules:\n  - name: f\n    type: dslam::BoxFilter\n    wait_coverage: 0.5\n");
+  EXPECT_NE(e.find("'wait_coverage' applies to detectors only"), std::string::npos) << e;
+}
+
 TEST(Pipeline, DetectorsRunEveryNthFrame) {
   register_builtin_plugins();
   const auto pc = config::loadPipelineText(

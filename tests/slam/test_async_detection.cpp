@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <thread>
 
 #include "dslam/core/dataset.h"
 #include "dslam/core/detector.h"
@@ -102,11 +103,11 @@ std::shared_ptr<DatasetSource> scene() {
  *  feeds the classifier "probe". */
 std::unique_ptr<System> probedSystem(const DatasetSource& ds, std::shared_ptr<Detector> det,
                                      std::shared_ptr<KeypointClassifier> probe, System::DetectionMode mode,
-                                     bool carry_by_flow = true) {
+                                     bool carry_by_flow = true, double wait_coverage = 0.0) {
   SlamParams sp;
   sp.place.enabled = false;
   auto sys = std::make_unique<System>(*ds.camera(), sp, test::defaultBackend(), config::Mode::Parallel);
-  sys->addDetector("gated", std::move(det), 1, mode, carry_by_flow);
+  sys->addDetector("gated", std::move(det), 1, mode, carry_by_flow, true, 0, wait_coverage);
   sys->addClassifier("probe", std::move(probe), "gated");
   return sys;
 }
@@ -141,6 +142,54 @@ TEST(AsyncDetection, TrackingDoesNotWaitForASlowDetector) {
   // After the release, a newer detection arrives and ages stay small.
   EXPECT_GT(probe->seen.back().det_frame, 1);
   EXPECT_LT(probe->seen.back().age, 10);
+}
+
+// wait_coverage: a frame whose carried boxes cover more of the image than
+// the threshold waits for the running detection; other frames do not.
+TEST(AsyncDetection, WaitCoverageWaitsOnlyWhenCarriedBoxesCoverTheImage) {
+  auto ds = scene();  // 320 x 240
+  struct Case {
+    cv::Rect2f box;
+    double wait_coverage;
+    bool waits;
+  };
+  for (const Case& c : {Case{{0, 0, 200, 230}, 0.5, true},      // 60 % of the image
+                        Case{{100, 60, 80, 120}, 0.5, false},   // 12.5 %
+                        Case{{0, 0, 200, 230}, 0.0, false}}) {  // off
+    SCOPED_TRACE(testing::Message() << "box area " << c.box.area() / (320.0 * 240.0) << ", wait_coverage "
+                                    << c.wait_coverage);
+    auto det = std::make_shared<dslam_test::GatedDetector>();
+    det->boxes = [box = c.box](const SensorFrame& f) { return std::vector<BoundingBox>{{box, 1, 0.9f, f.index}}; };
+    auto probe = std::make_shared<dslam_test::Probe>();
+    {
+      auto sys = probedSystem(*ds, det, probe, System::DetectionMode::Async, true, c.wait_coverage);
+      // The detector blocks on frame 1 until released: 0.3 s after the
+      // start when the System is expected to wait, after frame 9 else.
+      std::thread releaser;
+      if (c.waits)
+        releaser = std::thread([&] {
+          std::this_thread::sleep_for(std::chrono::milliseconds(300));
+          det->release();
+        });
+      for (size_t i = 0; i < 10; i++) sys->track(ds->read(i));
+      det->release();
+      if (releaser.joinable()) releaser.join();
+      sys->shutdown();
+    }
+    EXPECT_FALSE(det->timed_out);
+    ASSERT_EQ(probe->seen.size(), 10u);
+    if (c.waits) {
+      // Frame 1 carried frame 0's box (60 %), so it waited for its own
+      // detection, started on it.
+      EXPECT_EQ(probe->seen[1].det_frame, 1);
+      EXPECT_EQ(probe->seen[1].age, 0);
+    } else {
+      for (int k = 1; k < 10; k++) {
+        EXPECT_EQ(probe->seen[k].det_frame, 0) << k;
+        EXPECT_EQ(probe->seen[k].age, k) << k;
+      }
+    }
+  }
 }
 
 TEST(AsyncDetection, SyncModePairsEachFrameWithItsOwnDetection) {

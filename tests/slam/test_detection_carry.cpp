@@ -225,5 +225,22 @@ TEST(DetectionCarry, HoldEndsAfterItsFramesAndWhenTheClassIsReportedThere) {
   EXPECT_EQ(s, std::vector<int>{30});
 }
 
+// wait_coverage compares the union of the boxes, clipped to the image.
+TEST(DetectionCarry, BoxCoverageIsTheUnionOfTheBoxesInsideTheImage) {
+  const cv::Size size(100, 50);  // 5000 pixels
+  Detections d;
+  EXPECT_EQ(boxCoverage(d, size), 0.0);
+  d.boxes.push_back({cv::Rect2f(0, 0, 40, 50), 1, 0.9f, 0});  // 2000
+  EXPECT_DOUBLE_EQ(boxCoverage(d, size), 0.4);
+  d.boxes.push_back({cv::Rect2f(20, 0, 40, 25), 1, 0.9f, 0});  // 1000, half of it inside the first
+  EXPECT_DOUBLE_EQ(boxCoverage(d, size), 0.5);
+  d.boxes.push_back({cv::Rect2f(90, 40, 50, 50), 1, 0.9f, 0});  // 10 x 10 inside the image
+  EXPECT_DOUBLE_EQ(boxCoverage(d, size), 0.52);
+  d.boxes.push_back({cv::Rect2f(-30, -30, 200, 200), 1, 0.9f, 0});
+  EXPECT_DOUBLE_EQ(boxCoverage(d, size), 1.0);
+  d.boxes = {{cv::Rect2f(200, 0, 10, 10), 1, 0.9f, 0}};  // outside
+  EXPECT_EQ(boxCoverage(d, size), 0.0);
+}
+
 }  // namespace
 }  // namespace dslam

@@ -50,7 +50,8 @@ std::vector<SectionInfo> registeredSections() {
 }
 
 const std::vector<std::string>& moduleKeys() {
-  static const std::vector<std::string> k = {"name", "type", "params", "inputs", "enabled", "every", "detection", "carry", "hold", "keyframes"};
+  static const std::vector<std::string> k = {"name",  "type",  "params", "inputs",    "enabled",      "every",
+                                             "detection", "carry", "hold", "keyframes", "wait_coverage"};
   return k;
 }
 
@@ -173,6 +174,18 @@ int loadDetectorInt(const Loader& L, const node_t& ev, const std::string& kp, co
   return static_cast<int>(n);
 }
 
+/** A detector-only fraction key of modules[i] (wait_coverage), in [0, 1]. */
+double loadDetectorFraction(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc,
+                            const std::string& key, const std::string& meaning) {
+  const auto t = yamlu::scalarText(v).value_or("");
+  char* end = nullptr;
+  const double x = std::strtod(t.c_str(), &end);
+  if (t.empty() || *end != '\0' || !(x >= 0.0 && x <= 1.0))
+    L.fail(kp + "." + key, &v, "expected a number in [0, 1] (" + meaning + "), got " + yamlu::describe(v));
+  requireDetector(L, v, kp, mc, key);
+  return x;
+}
+
 /** A detector-only key of modules[i] with one of `values`. */
 std::string loadDetectorChoice(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc,
                                const std::string& key, const std::vector<std::string>& values) {
@@ -228,6 +241,9 @@ ModuleConfig loadModule(const Loader& L, const node_t& e, const std::string& kp)
   if (const node_t* cm = yamlu::findValue(e, "carry")) mc.carry = loadDetectorChoice(L, *cm, kp, mc, "carry", {"flow", "none"});
   if (const node_t* km = yamlu::findValue(e, "keyframes"))
     mc.keyframes = loadDetectorChoice(L, *km, kp, mc, "keyframes", {"redetect", "carried"});
+  if (const node_t* wc = yamlu::findValue(e, "wait_coverage"))
+    mc.wait_coverage = loadDetectorFraction(L, *wc, kp, mc, "wait_coverage",
+                                            "image fraction of carried boxes above which a frame waits; 0 = never");
   if (const node_t* in = yamlu::findValue(e, "inputs")) {
     if (!in->isSequence()) L.fail(kp + ".inputs", in, "expected a list of module names");
     for (const auto& x : in->asSequence()) mc.inputs.push_back(yamlu::scalarText(x).value_or(""));
@@ -360,7 +376,8 @@ std::string PipelineConfig::toYaml() const {
     if (!m.inputs.empty()) o << "    inputs: [" << yamlu::join(m.inputs) << "]\n";
     if (m.interface_name == std::string("Detector"))
       o << "    every: " << m.every << "\n    detection: " << m.detection << "\n    carry: " << m.carry
-        << "\n    hold: " << m.hold << "\n    keyframes: " << m.keyframes << "\n";
+        << "\n    hold: " << m.hold << "\n    keyframes: " << m.keyframes << "\n    wait_coverage: " << m.wait_coverage
+        << "\n";
     o << "    params:" << paramsBlock(m.params, 6);
   }
   o << "outputs:" << paramsBlock(outputs, 2);

@@ -482,7 +482,7 @@ std::unique_ptr<System> buildSystem(const config::PipelineConfig& pc, const Came
                     : m->detection == "async" ? System::DetectionMode::Async
                                               : System::DetectionMode::Auto;
     sys->addDetector(m->name, std::dynamic_pointer_cast<Detector>(makeModule(*m, base)), m->every, dm,
-                     m->carry == "flow", m->keyframes == "redetect", m->hold);
+                     m->carry == "flow", m->keyframes == "redetect", m->hold, m->wait_coverage);
   }
   for (const auto* m : pc.modulesOf("KeypointClassifier")) {
     auto c = std::dynamic_pointer_cast<KeypointClassifier>(makeModule(*m, base));

@@ -120,6 +120,7 @@ struct System::DetectorSlot {
   bool flow = true;  ///< carry older detections by optical flow (false: left in place, age grows)
   bool redetect_keyframes = true;  ///< async: keyframes with a carried detection are detected again
   int hold = 0;                    ///< frames a box the detector stops reporting is kept (holdMissedBoxes)
+  double wait_coverage = 0;        ///< async: wait for the running detection above this box coverage (0 = never)
   std::vector<int> last_seen;      ///< hold: frame at which each box of `last` was last reported
   Detections prev;                 ///< async, hold: the detection a new one replaced in this frame
   cv::Mat prev_gray;
@@ -406,7 +407,7 @@ System::~System() { shutdown(); }
 MapPtr System::map() const { return maps_->currentMap(); }
 
 void System::addDetector(const std::string& name, std::shared_ptr<Detector> det, int every, DetectionMode detection,
-                         bool carry_by_flow, bool redetect_keyframes, int hold) {
+                         bool carry_by_flow, bool redetect_keyframes, int hold, double wait_coverage) {
   auto s = std::make_unique<DetectorSlot>();
   s->name = name;
   s->det = std::move(det);
@@ -414,6 +415,7 @@ void System::addDetector(const std::string& name, std::shared_ptr<Detector> det,
   s->flow = carry_by_flow;
   s->redetect_keyframes = redetect_keyframes;
   s->hold = std::max(0, hold);
+  s->wait_coverage = std::clamp(wait_coverage, 0.0, 1.0);
   const bool parallel = mode_ == config::Mode::Parallel;
   s->async = parallel && (detection == DetectionMode::Async ||
                           (detection == DetectionMode::Auto && !s->det->precomputed()));
@@ -534,6 +536,22 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
         } else {
           dets[d] = s.last;
           dets[d].age_frames = age;
+        }
+        if (s.async && s.wait_coverage > 0 && s.pending.valid() && dets[d].valid &&
+            boxCoverage(dets[d], f.gray.size()) > s.wait_coverage) {
+          // Boxes over most of the image leave few keypoints, and a carried
+          // box that lags behind a person lets the person in: this frame
+          // waits for the running detection and takes it carried here.
+          double ms = 0;
+          {
+            auto t = timer_.scope("detector_wait", fi);
+            Detections nd = s.wait(ms);
+            s.take(std::move(nd), s.pending_gray);
+          }
+          timer_.add("detector", s.last.frame_index, ms);
+          coverage_waits_++;
+          auto t = timer_.scope("detection_carry", fi);
+          dets[d] = carryDetections(s.last, s.last_gray, f.gray, fi - s.last.frame_index);
         }
       } else {
         dets[d].valid = false;  // no detection yet
@@ -779,6 +797,8 @@ void System::shutdown() {
                                     << relabelled_kps_ << " keypoints became dynamic, " << relabelled_pts_
                                     << " of their map points or matches dropped, " << relabelled_lowered_
                                     << " dynamic only in the carried detection became usable");
+  if (coverage_waits_ > 0)
+    DSLAM_LOG(Info, coverage_waits_ << " frames waited for the running detection (carried boxes over wait_coverage)");
   if (loop_) {
     loop_->waitIdle();
     loop_->stop();

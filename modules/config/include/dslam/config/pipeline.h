@@ -52,6 +52,10 @@ struct ModuleConfig {
    *  carried is detected again and labelled again before local mapping uses
    *  it) | "carried" (its carried labels stay). */
   std::string keyframes = "redetect";
+  /** detectors, asynchronous: a frame whose carried boxes cover more than
+   *  this fraction of the image waits for the running detection (crowded
+   *  views leave few keypoints, where a lagging box hurts most); 0 = never. */
+  double wait_coverage = 0;
   SourceLocation where;
 };
 
@@ -101,7 +105,7 @@ std::vector<SectionInfo> registeredSections();
 
 std::vector<ParamSpec> pipelineParamSpecs();
 /** The keys of a `modules:` entry (name, type, params, inputs, enabled,
- *  every, detection, carry, hold, keyframes). */
+ *  every, detection, carry, hold, keyframes, wait_coverage). */
 const std::vector<std::string>& moduleKeys();
 std::vector<ParamSpec> datasetCommonParamSpecs();
 std::vector<ParamSpec> outputParamSpecs();

@@ -72,4 +72,9 @@ std::vector<int> holdMissedBoxes(const Detections& prev, const cv::Mat& prev_img
  *  `frame` (seen[j], kept aligned with d.boxes). */
 void dropExpiredBoxes(Detections& d, std::vector<int>& seen, int frame, int hold);
 
+/** Fraction of an image of size `size` that the union of the boxes of `d`
+ *  covers (clipped to the image; 0 for detections without boxes). The
+ *  `wait_coverage:` of an asynchronous detector compares it. */
+double boxCoverage(const Detections& d, cv::Size size);
+
 }  // namespace dslam

@@ -86,10 +86,12 @@ class System {
     Async,  ///< parallel mode: tracking never waits; the latest finished detection is carried to each frame
   };
   /** Adds a detector; classifiers name it as their input (first one by default).
-   *  Sequential mode is always Sync (deterministic). */
+   *  Sequential mode is always Sync (deterministic). Async with
+   *  `wait_coverage` > 0: a frame whose carried boxes cover more than that
+   *  fraction of the image waits for the running detection (boxCoverage()). */
   void addDetector(const std::string& name, std::shared_ptr<Detector> det, int every_n_frames = 1,
                    DetectionMode detection = DetectionMode::Auto, bool carry_by_flow = true,
-                   bool redetect_keyframes = true, int hold = 0);
+                   bool redetect_keyframes = true, int hold = 0, double wait_coverage = 0.0);
   /** Appends a classifier to the chain; `detector` = "" uses the first detector. */
   void addClassifier(const std::string& name, std::shared_ptr<KeypointClassifier> c, const std::string& detector = "");
 
@@ -193,6 +195,7 @@ class System {
   int tracking_frame_ = -1;  ///< frame in tracker_->track() (late_mtx_): its keyframe may not be registered yet
   std::map<int64_t, LateLabels> late_;  ///< by keyframe id
   std::atomic<int> relabelled_kfs_{0}, relabelled_kps_{0}, relabelled_pts_{0}, relabelled_lowered_{0};
+  int coverage_waits_ = 0;  ///< frames that waited for a detection (`wait_coverage`)
   std::vector<std::unique_ptr<DetectorSlot>> detectors_;
   std::vector<ClassifierSlot> classifiers_;
   std::optional<Frame> prev_frame_;
