@@ -177,13 +177,11 @@ int loadDetectorInt(const Loader& L, const node_t& ev, const std::string& kp, co
 /** A detector-only fraction key of modules[i] (wait_coverage), in [0, 1]. */
 double loadDetectorFraction(const Loader& L, const node_t& v, const std::string& kp, const ModuleConfig& mc,
                             const std::string& key, const std::string& meaning) {
-  const auto t = yamlu::scalarText(v).value_or("");
-  char* end = nullptr;
-  const double x = std::strtod(t.c_str(), &end);
-  if (t.empty() || *end != '\0' || !(x >= 0.0 && x <= 1.0))
+  const auto x = yamlu::parseDouble(yamlu::scalarText(v).value_or(""));
+  if (!x || !(*x >= 0.0 && *x <= 1.0))
     L.fail(kp + "." + key, &v, "expected a number in [0, 1] (" + meaning + "), got " + yamlu::describe(v));
   requireDetector(L, v, kp, mc, key);
-  return x;
+  return *x;
 }
 
 /** A detector-only key of modules[i] with one of `values`. */

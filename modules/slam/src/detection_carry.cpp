@@ -291,13 +291,8 @@ void dropExpiredBoxes(Detections& d, std::vector<int>& seen, int frame, int hold
 double boxCoverage(const Detections& d, cv::Size size) {
   if (d.boxes.empty() || size.area() <= 0) return 0.0;
   cv::Mat cover(size, CV_8U, cv::Scalar(0));
-  const cv::Rect image(0, 0, size.width, size.height);
   for (const auto& b : d.boxes) {
-    // Pixels whose centres lie inside the box.
-    const cv::Point tl(static_cast<int>(std::ceil(b.box.x - 0.5f)), static_cast<int>(std::ceil(b.box.y - 0.5f)));
-    const cv::Point br(static_cast<int>(std::ceil(b.box.x + b.box.width - 0.5f)),
-                       static_cast<int>(std::ceil(b.box.y + b.box.height - 0.5f)));
-    const cv::Rect r = cv::Rect(tl, br) & image;
+    const cv::Rect r = clampRect(cv::Rect(b.box), size);
     if (!r.empty()) cover(r).setTo(255);
   }
   return cv::countNonZero(cover) / static_cast<double>(size.area());

@@ -198,6 +198,14 @@ struct System::DetectorSlot {
     out_ms = r.get().second;
     return r.get().first;
   }
+  /** Async: waits for the submitted job, whose detections (of
+   *  `pending_gray`) become the latest (take()); returns its time, ms. */
+  double takePending() {
+    double ms = 0;
+    Detections d = wait(ms);
+    take(std::move(d), pending_gray);
+    return ms;
+  }
   /** Async: `d` (of image `gray`) becomes the latest detection; the one it
    *  replaces is kept for `hold` (the first replacement in a frame). */
   void take(Detections d, const cv::Mat& gray) {
@@ -456,9 +464,7 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
     if (s.async) {
       // The first frame waits for its detection: a map must not start on undetected movers.
       if (s.pending.valid() && (s.pendingReady() || s.last_gray.empty())) {
-        double ms = 0;
-        Detections d = s.wait(ms);
-        s.take(std::move(d), s.pending_gray);
+        const double ms = s.takePending();
         timer_.add("detector", s.last.frame_index, ms);
       }
       // Keyframes' own detections (queued after `pending`): newer than the
@@ -545,8 +551,7 @@ Frame System::extract(const SensorFrame& in, std::vector<Detections>& dets) {
           double ms = 0;
           {
             auto t = timer_.scope("detector_wait", fi);
-            Detections nd = s.wait(ms);
-            s.take(std::move(nd), s.pending_gray);
+            ms = s.takePending();
           }
           timer_.add("detector", s.last.frame_index, ms);
           coverage_waits_++;
