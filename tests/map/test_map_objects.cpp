@@ -243,3 +243,38 @@ TEST(MapObject, ReidentifiesAnObjectMovedRigidlyOnly) {
   sharing.points[a[0]->id] = a[0];
   EXPECT_FALSE(reidentify(sharing, old, p).moved);
 }
+
+TEST(MapObject, SmallViewsOfOneObjectAddUpToACandidate) {
+  LtdaParams p;  // min_points 5, threshold 0.25 m
+  SmallCandidatePool pool;
+  // Keyframe 10: 3 points of a chair at (1, 0, 3) and 2 of a tv far from it.
+  auto chair_a = blob({1, 0, 3}, 3, 0, 0.1);
+  auto tv = blob({-1, 0, 3}, 2, 10, 0.1, 72);
+  EXPECT_TRUE(pool.add({candidate(62, chair_a), candidate(72, tv)}, 0, 10, 5, p).empty());
+  EXPECT_EQ(pool.size(), 2u);
+  // Keyframe 10 again cannot add to itself: one view is one view.
+  EXPECT_TRUE(pool.add({candidate(62, blob({1, 0.2, 3}, 3, 20, 0.05))}, 0, 10, 5, p).empty());
+  EXPECT_EQ(pool.size(), 3u);
+  // Keyframe 12: 3 more chair points 0.05 m away, one of them seen before:
+  // 5 distinct points make one candidate of the chair class.
+  auto chair_b = blob({1.05, 0, 3}, 2, 30, 0.1);
+  chair_b.push_back(chair_a[0]);
+  const auto made = pool.add({candidate(62, chair_b)}, 0, 12, 5, p);
+  ASSERT_EQ(made.size(), 1u);
+  EXPECT_EQ(made[0].class_id, 62);
+  EXPECT_EQ(made[0].points.size(), 5u);
+  EXPECT_NEAR(made[0].centroid.x(), 1.02, 0.06);
+  // Another class at the same place, or the same class 0.5 m away, does not join.
+  EXPECT_TRUE(pool.add({candidate(72, blob({1, 0, 3}, 3, 40, 0.1, 72))}, 0, 13, 5, p).empty());
+  EXPECT_TRUE(pool.add({candidate(62, blob({1.5, 0, 3}, 3, 50, 0.1))}, 0, 13, 5, p).empty());
+  // Nor does the same class of another map.
+  EXPECT_TRUE(pool.add({candidate(72, blob({-1, 0, 3}, 3, 60, 0.1, 72))}, 1, 14, 5, p).empty());
+  // The tv of keyframe 10 is forgotten after 5 keyframes: 3 more points at
+  // keyframe 16 make no candidate with its 2.
+  EXPECT_TRUE(pool.add({candidate(72, blob({-1, 0, 3}, 3, 70, 0.1, 72))}, 0, 16, 5, p).empty());
+  // A map's views are dropped when its tracking is lost.
+  const size_t before = pool.size();
+  pool.clear(0);
+  EXPECT_LT(pool.size(), before);
+  EXPECT_EQ(pool.size(), 1u);  // map 1's tv
+}

@@ -314,12 +314,13 @@ TEST(ObjectPersistenceFilter, PointsNotFoundAgainAreNegativeEvidenceWithoutSeein
   // The chair is gone and something else stands at the same depth (a floor,
   // another object of no class): its points are in view and not found (other
   // texture). The see-through test is switched off (min_free_fraction 1: some
-  // wall shows between the sparse points of the other surface).
+  // wall shows between the sparse points of the other surface), and so is
+  // the test for nothing of its class on its place (undetected_keyframes 0).
   for (const bool point_evidence : {true, false}) {
     auto atlas = std::make_shared<Atlas>();
     auto filter = makeFilter<ObjectPersistenceFilter>(
-        point_evidence ? "{dormant_after_s: 0, min_free_fraction: 1}"
-                       : "{dormant_after_s: 0, min_free_fraction: 1, min_found_fraction: 0}",
+        point_evidence ? "{dormant_after_s: 0, min_free_fraction: 1, undetected_keyframes: 0}"
+                       : "{dormant_after_s: 0, min_free_fraction: 1, min_found_fraction: 0, undetected_keyframes: 0}",
         atlas);
     Scene s(filter->currentMap());
     filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
@@ -385,8 +386,9 @@ TEST(ObjectPersistenceFilter, PointsOutsideTheirScaleRangeAreNotExpected) {
 }
 
 TEST(ObjectPersistenceFilter, PointsFoundAgainWakeADormantObjectWithoutADetection) {
+  // With undetected_keyframes 0 (off; see the next test for the default).
   auto atlas = std::make_shared<Atlas>();
-  auto filter = makeFilter<ObjectPersistenceFilter>("{}", atlas);
+  auto filter = makeFilter<ObjectPersistenceFilter>("{undetected_keyframes: 0}", atlas);
   Scene s(filter->currentMap());
   filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
   const MapObject& o = onlyObject(*s.map);
@@ -400,6 +402,45 @@ TEST(ObjectPersistenceFilter, PointsFoundAgainWakeADormantObjectWithoutADetectio
   EXPECT_GT(o.belief, 0.5);
   EXPECT_EQ(filter->stats().woken, 1);
   EXPECT_EQ(s.map->objects().size(), 1u);  // no candidate, no new object
+}
+
+TEST(ObjectPersistenceFilter, NothingOfItsClassOnItsPlaceOutweighsItsPointsFound) {
+  // Background points labelled with a box's class (the floor between a
+  // chair's legs) make an object whose points are still found after the
+  // chair left. With its whole place in view and no keypoint of its class on
+  // it, its points found are no sighting: `undetected_keyframes` such
+  // keyframes (1 by default) are negative evidence.
+  for (const int need : {1, 2}) {
+    auto atlas = std::make_shared<Atlas>();
+    auto filter = makeFilter<ObjectPersistenceFilter>(
+        "{dormant_after_s: 0, undetected_keyframes: " + std::to_string(need) + "}", atlas);
+    Scene s(filter->currentMap());
+    filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+    const MapObject& o = onlyObject(*s.map);
+    // 3 s later its points are there (found by their descriptors, not
+    // matched by tracking) and nothing of its class is detected.
+    filter->onKeyFrame(s.keyframe(3.0, poseAt({0.03, 0, 0}), true, false, false));
+    EXPECT_EQ(filter->stats().sightings, 0) << need;
+    if (need == 2) {
+      EXPECT_TRUE(o.active);
+      EXPECT_DOUBLE_EQ(o.belief, 0.5);  // one such keyframe decides nothing
+      EXPECT_EQ(filter->stats().misses, 0);
+      filter->onKeyFrame(s.keyframe(3.5, poseAt({0.01, 0, 0}), true, false, false));
+    }
+    EXPECT_EQ(filter->stats().misses, 1) << need;
+    EXPECT_LT(o.belief, 0.2) << need;  // 0.5 -> 0.18 (p_detect 0.8, p_false 0.1)
+    EXPECT_FALSE(o.active) << need;
+  }
+  // Detected there (its keypoints labelled), the same view is a sighting.
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{dormant_after_s: 0}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObject& o = onlyObject(*s.map);
+  filter->onKeyFrame(s.keyframe(3.0, poseAt({0.03, 0, 0}), true, false, true));
+  EXPECT_EQ(filter->stats().misses, 0);
+  EXPECT_GT(o.belief, 0.5);
+  EXPECT_TRUE(o.active);
 }
 
 TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablishedPoints) {
@@ -449,7 +490,8 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
 }
 
 TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
-  // The chair is gone. Place: its points not found are no evidence
+  // The chair is gone (nothing of its class detected on its place is no
+  // evidence here: undetected_keyframes 0). Place: its points not found are no evidence
   // (min_found_fraction 0), and each keyframe sees 13-18 keypoints of the
   // wall through the central half of its place, fewer than
   // min_place_keypoints 20. Points: the see-through test is off
@@ -464,7 +506,8 @@ TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
   auto run = [](const std::string& evidence, int evidence_keyframes, int keyframes) {
     auto atlas = std::make_shared<Atlas>();
     auto filter = makeFilter<ObjectPersistenceFilter>(
-        "{dormant_after_s: 0, " + evidence + ", evidence_keyframes: " + std::to_string(evidence_keyframes) + "}",
+        "{dormant_after_s: 0, undetected_keyframes: 0, " + evidence +
+            ", evidence_keyframes: " + std::to_string(evidence_keyframes) + "}",
         atlas);
     Scene s(filter->currentMap());
     filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));

@@ -93,9 +93,11 @@ bool isObjectClass(int c, const LtdaParams& p) {
   return std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
 }
 
-std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p) {
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p,
+                                             std::vector<ObjectCandidate>* small) {
   // (class, instance) -> keypoint indices, in keypoint order.
   std::map<std::pair<int, int>, std::vector<size_t>> groups;
+  std::vector<char> labelled_now(kf.points.size(), 0);  // its class from this keyframe's labels
   for (size_t i = 0; i < kf.points.size(); i++) {
     const MapPointPtr& mp = kf.points[i];
     if (!mp || mp->bad) continue;
@@ -103,6 +105,7 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     if (i < kf.meta.size() && kf.meta[i].label != KpLabel::Dynamic) {
       c = kf.meta[i].class_id;
       inst = kf.meta[i].object_id;
+      labelled_now[i] = c >= 0;
     }
     if (c < 0) {  // the class the point was created with
       c = mp->class_id;
@@ -112,8 +115,13 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     groups[{c, inst}].push_back(i);
   }
   std::vector<ObjectCandidate> out;
-  auto emit = [&](int c, int inst, const std::vector<size_t>& idx) {
-    if (static_cast<int>(idx.size()) < p.min_points) return;
+  auto emit = [&](int c, int inst, std::vector<size_t> idx) {
+    const bool too_small = static_cast<int>(idx.size()) < p.min_points;
+    if (too_small && !small) return;
+    if (too_small) {  // a small view counts only with this keyframe's labels (a detection now)
+      idx.erase(std::remove_if(idx.begin(), idx.end(), [&](size_t i) { return !labelled_now[i]; }), idx.end());
+      if (idx.empty()) return;
+    }
     ObjectCandidate cand;
     cand.class_id = c;
     cand.source_id = inst;
@@ -129,7 +137,7 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     }
     cand.centroid /= static_cast<double>(idx.size());
     cand.box = cv::Rect2f(x0, y0, x1 - x0, y1 - y0);
-    out.push_back(std::move(cand));
+    (too_small ? *small : out).push_back(std::move(cand));
   };
   for (const auto& [key, idx] : groups) {
     std::vector<Eigen::Vector3d> xs;
@@ -148,6 +156,61 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     }
   }
   return out;
+}
+
+namespace {
+
+/** Recomputes a candidate's centroid from its points' current positions
+ *  (bad points dropped); false if none is left. */
+bool refreshCandidate(ObjectCandidate& c) {
+  c.points.erase(std::remove_if(c.points.begin(), c.points.end(), [](const MapPointPtr& mp) { return !mp || mp->bad; }),
+                 c.points.end());
+  if (c.points.empty()) return false;
+  c.centroid.setZero();
+  for (const auto& mp : c.points) c.centroid += mp->pos;
+  c.centroid /= static_cast<double>(c.points.size());
+  return true;
+}
+
+}  // namespace
+
+std::vector<ObjectCandidate> SmallCandidatePool::add(std::vector<ObjectCandidate> small, int64_t map_id, int64_t kf_id,
+                                                     int keyframes, const LtdaParams& p) {
+  std::vector<ObjectCandidate> out;
+  kept_.erase(std::remove_if(kept_.begin(), kept_.end(),
+                             [&](Kept& k) { return kf_id - k.last_kf > keyframes || !refreshCandidate(k.cand); }),
+              kept_.end());
+  for (ObjectCandidate& c : small) {
+    if (!refreshCandidate(c)) continue;
+    Kept* best = nullptr;
+    double best_d = p.threshold_m;
+    for (Kept& k : kept_) {
+      if (k.map_id != map_id || k.cand.class_id != c.class_id || k.last_kf == kf_id) continue;
+      const double d = (k.cand.centroid - c.centroid).norm();
+      if (d < best_d) best_d = d, best = &k;
+    }
+    if (!best) {
+      kept_.push_back({std::move(c), map_id, kf_id});
+      continue;
+    }
+    for (auto& mp : c.points)
+      if (std::find(best->cand.points.begin(), best->cand.points.end(), mp) == best->cand.points.end())
+        best->cand.points.push_back(mp);
+    best->cand.box = c.box;  // the latest view
+    best->cand.source_id = c.source_id;
+    best->last_kf = kf_id;
+    refreshCandidate(best->cand);
+    if (static_cast<int>(best->cand.points.size()) >= p.min_points) {
+      out.push_back(std::move(best->cand));
+      kept_.erase(kept_.begin() + (best - kept_.data()));
+    }
+  }
+  return out;
+}
+
+void SmallCandidatePool::clear(int64_t map_id) {
+  kept_.erase(std::remove_if(kept_.begin(), kept_.end(), [&](const Kept& k) { return k.map_id == map_id; }),
+              kept_.end());
 }
 
 std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects,

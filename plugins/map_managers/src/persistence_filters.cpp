@@ -95,7 +95,8 @@ std::string PersistenceStats::str() const {
          std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken" +
          (keyframe_requests > 0 ? ", " + std::to_string(keyframe_requests) + " keyframes requested" : "") +
          (merged > 0 ? ", " + std::to_string(merged) + " merged" : "") +
-         (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "");
+         (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "") +
+         (accumulated > 0 ? ", " + std::to_string(accumulated) + " candidates from small views added up" : "");
 }
 
 // ---------------------------------------------------------------------------
@@ -186,6 +187,20 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             1, 1000),
       P_int("max_descriptor_distance", 50, "point evidence: a keypoint this close (ORB) at the projection is the point",
             0, 256),
+      P_int("small_candidate_keyframes", 5,
+            "object candidates with fewer than min_points points (only the points labelled with the class in that "
+            "keyframe) are kept this many keyframes: views of a small or barely visible object of one class within "
+            "ltda_threshold add up until their points make min_points (ours; 0 = off, each keyframe on its own as "
+            "in Changing-SLAM; docs/changing.md)",
+            0, 1000),
+      P_int("undetected_keyframes", 1,
+            "negative evidence when this many keyframes of one evidence window (evidence_keyframes) see an "
+            "object's whole place with at least min_place_keypoints keypoints with depth on it, fewer than half of "
+            "them in front of it by occlusion_margin, and none labelled with its class (Changing-SLAM: no "
+            "detection supports it); its own points found there are then no sighting (background points of its "
+            "box, the floor between a chair's legs, are still there after it left) (ours; 0 = off: points found "
+            "are a sighting without a detection; docs/changing.md)",
+            0, 1000),
       P_int("new_object_keypoints", 10,
             "a detected object with this many keypoints with depth, at most a fifth of them on established map "
             "points (seen by 3 keyframes), asks for a keyframe, so that objects seen while tracking needs none get "
@@ -231,6 +246,9 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
   reid_.max_descriptor_distance = max_descriptor_distance_;
   reid_.min_shift_m = ltda_.threshold_m;
+  small_candidate_keyframes_ = static_cast<int>(p.getInt("small_candidate_keyframes"));
+  small_ = SmallCandidatePool();
+  undetected_keyframes_ = static_cast<int>(p.getInt("undetected_keyframes"));
   new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
   new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
   last_request_t_ = -1e300;
@@ -265,6 +283,7 @@ ObjectPersistenceFilter::Evidence& ObjectPersistenceFilter::Evidence::operator+=
   expected += e.expected, found += e.found;
   with_depth += e.with_depth, through += e.through, other += e.other;
   keyframes += e.keyframes;
+  undetected += e.undetected;
   return *this;
 }
 
@@ -313,12 +332,19 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
   const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);
   const float cy0 = y0 + 0.25f * (y1 - y0), cy1 = y1 - 0.25f * (y1 - y0);
   int support = 0;
+  int labelled = 0, rect_depth = 0, rect_front = 0;
   Evidence here;
   for (size_t i = 0; i < kf.size(); i++) {
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
-    if ((mp && mp->map_object == o.id) || (!kf.meta.empty() && kf.meta[i].class_id == o.class_id)) support++;
+    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id;
+    if ((mp && mp->map_object == o.id) || of_class) support++;
+    labelled += of_class;
+    if (i < kf.depth.size() && kf.depth[i] > 0) {
+      rect_depth++;
+      rect_front += kf.depth[i] < z - occlusion_margin_;
+    }
     if (pt.x < cx0 || pt.x > cx1 || pt.y < cy0 || pt.y > cy1) continue;
     if (i < kf.depth.size() && kf.depth[i] > 0) {
       here.with_depth++;
@@ -329,6 +355,13 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
           std::abs(kf.depth[i] - z) <= occlusion_margin_)
         here.other++;
     }
+  }
+  // Nothing of its class detected on its place, in full view and mostly not
+  // hidden: its own points found there are no support (they may be the
+  // floor between a chair's legs, still there after the chair left).
+  if (undetected_keyframes_ > 0 && labelled == 0 && rect_depth >= min_place_keypoints_ && 2 * rect_front < rect_depth) {
+    ev.undetected = 1;
+    support = 0;
   }
   if (support >= min_support_points_) return false;
   ev += here;
@@ -366,7 +399,13 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   if (kf->bad) return;
   stats_.keyframes++;
   auto& objects = m->objects();
-  const auto candidates = objectCandidates(*kf, ltda_);
+  std::vector<ObjectCandidate> small;
+  auto candidates = objectCandidates(*kf, ltda_, small_candidate_keyframes_ > 0 ? &small : nullptr);
+  if (small_candidate_keyframes_ > 0)
+    for (auto& c : small_.add(std::move(small), m->id, kf->id, small_candidate_keyframes_, ltda_)) {
+      stats_.accumulated++;
+      candidates.push_back(std::move(c));
+    }
   const auto matches = associateObjects(objects, candidates, kf->id, kf->timestamp, ltda_, Map::objectIdCounter());
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
@@ -417,6 +456,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
     const bool place_taken = !placeEvidence(*kf, o, now);
+    const bool undetected = now.undetected > 0;
     Evidence ev;  // what earlier keyframes gathered without a decision, and this one
     if (auto it = pending_.find(id); it != pending_.end()) {
       ev = it->second;
@@ -426,7 +466,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       ev = Evidence{};
       now.with_depth = now.through = now.other = 0;
     }
-    if (now.expected > 0 || now.with_depth > 0) {
+    if (now.expected > 0 || now.with_depth > 0 || now.undetected > 0) {
       now.keyframes = 1;
       ev += now;
     }
@@ -434,7 +474,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     // fewer than 3 points are never judged (summed keyframes see the same ones).
     const int need = std::min(min_expected_points_, std::max(3, static_cast<int>(o.numPoints() / 2)));
     const bool judged = o.numPoints() >= 3 && ev.expected >= need;
-    if (judged && ev.found >= present_fraction_ * ev.expected) {
+    if (judged && ev.found >= present_fraction_ * ev.expected && !undetected) {
       // Its points are there although no candidate was made of them (detector miss, labels): a sighting.
       const bool was_dormant = o.dormant;
       o.dormant = false;
@@ -477,11 +517,14 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       }
     }
     const bool free = placeFree(ev);
-    if (free || (judged && ev.found < min_found_fraction_ * ev.expected)) {
+    const bool undetected_enough = undetected_keyframes_ > 0 && ev.undetected >= undetected_keyframes_;
+    if (free || undetected_enough || (judged && ev.found < min_found_fraction_ * ev.expected)) {
       o.belief = objectBeliefMissed(o.belief, belief_, free);
       stats_.misses++;
       traceObject(*kf, o,
-                  free ? "negative evidence (its place seen through)" : "negative evidence (its points not found)");
+                  free ? "negative evidence (its place seen through)"
+                       : undetected_enough ? "negative evidence (nothing of its class detected on its place)"
+                                    : "negative evidence (its points not found)");
       if (o.belief < belief_threshold_) {
         setGone(o);
         continue;
@@ -503,6 +546,7 @@ void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {
     setDormant(*o);
     pending_.erase(id);  // evidence from before the loss is not added to evidence after it
   }
+  small_.clear(m->id);
 }
 
 // ---------------------------------------------------------------------------

@@ -97,8 +97,41 @@ bool isObjectClass(int c, const LtdaParams& p);
 
 /** The object candidates of a keyframe: its map points whose keypoints carry
  *  a class (KeypointMeta of the keyframe or the point's own class), grouped
- *  by (class, instance id), points without an instance id clustered. */
-std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p);
+ *  by (class, instance id), points without an instance id clustered.
+ *  Candidates with fewer than `min_points` points are dropped or, with
+ *  `small`, put there, made of the points labelled with the class in this
+ *  keyframe only (for SmallCandidatePool). */
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p,
+                                             std::vector<ObjectCandidate>* small = nullptr);
+
+/** Candidates too small for an object (fewer than `min_points`, put into
+ *  `small` by objectCandidates), kept for a few keyframes so that the views
+ *  of a small or barely visible object add up (ours, beyond Changing-SLAM:
+ *  an object at the image border or mostly hidden shows 3-4 labelled points
+ *  per keyframe, each view alone too few). A small candidate joins the kept
+ *  one of its class and map whose centroid (from the points' current
+ *  positions) is nearest within the LTDA threshold; when their distinct
+ *  points reach `min_points` they become one candidate. */
+class SmallCandidatePool {
+ public:
+  /** Adds the small candidates of keyframe `kf_id` of map `map_id`, forgets
+   *  kept ones not joined in the last `keyframes` keyframes (of any map;
+   *  keyframe ids grow), and returns the joined ones that reached
+   *  `p.min_points`, taken out of the pool. */
+  std::vector<ObjectCandidate> add(std::vector<ObjectCandidate> small, int64_t map_id, int64_t kf_id, int keyframes,
+                                   const LtdaParams& p);
+  /** Forgets the kept candidates of one map (tracking lost: the old views
+   *  are not added to new ones). */
+  void clear(int64_t map_id);
+  size_t size() const { return kept_.size(); }
+
+ private:
+  struct Kept {
+    ObjectCandidate cand;
+    int64_t map_id = -1, last_kf = -1;
+  };
+  std::vector<Kept> kept_;
+};
 
 /** What long-term data association did with one candidate. */
 struct LtdaMatch {

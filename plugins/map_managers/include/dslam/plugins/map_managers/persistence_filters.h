@@ -51,6 +51,7 @@ struct PersistenceStats {
   int64_t keyframe_requests = 0;  ///< keyframes asked for unmapped objects in view
   int64_t merged = 0;             ///< objects merged into another (partial views of one object)
   int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
+  int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
   std::string str() const;
 };
 
@@ -89,6 +90,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
     int expected = 0, found = 0;
     int with_depth = 0, through = 0, other = 0;
     int keyframes = 0;
+    int undetected = 0;  ///< keyframes that saw its whole place and nothing of its class on it
     Evidence& operator+=(const Evidence& e);
   };
   Evidence pointEvidence(const KeyFrame& kf, const MapObject& o,
@@ -120,6 +122,9 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
   int evidence_keyframes_ = 3;
   std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
+  int small_candidate_keyframes_ = 5;
+  int undetected_keyframes_ = 1;
+  SmallCandidatePool small_;  ///< candidates too small for an object, adding up
   PersistenceStats stats_;
 };
 
