@@ -95,8 +95,10 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   };
   Evidence pointEvidence(const KeyFrame& kf, const MapObject& o,
                          const std::unordered_set<const MapPoint*>& kf_points) const;
-  /** Adds the place evidence of `kf` to `ev`; false if something of its
-   *  class is on its place (it is there: no negative evidence). */
+  /** Adds the place evidence of `kf` to `ev`, with `undetected` set when
+   *  its whole place is in view, not hidden, and no keypoint on it carries
+   *  its class; false if its points or keypoints of its class are on its
+   *  place (it is there: no negative evidence), unless `undetected`. */
   bool placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const;
   bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
