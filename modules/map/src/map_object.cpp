@@ -177,8 +177,12 @@ bool refreshCandidate(ObjectCandidate& c) {
 std::vector<ObjectCandidate> SmallCandidatePool::add(std::vector<ObjectCandidate> small, int64_t map_id, int64_t kf_id,
                                                      int keyframes, const LtdaParams& p) {
   std::vector<ObjectCandidate> out;
+  // Only this map's points are read (the caller holds its lock); views of
+  // other maps just age.
   kept_.erase(std::remove_if(kept_.begin(), kept_.end(),
-                             [&](Kept& k) { return kf_id - k.last_kf > keyframes || !refreshCandidate(k.cand); }),
+                             [&](Kept& k) {
+                               return kf_id - k.last_kf > keyframes || (k.map_id == map_id && !refreshCandidate(k.cand));
+                             }),
               kept_.end());
   for (ObjectCandidate& c : small) {
     if (!refreshCandidate(c)) continue;

@@ -117,7 +117,8 @@ class SmallCandidatePool {
   /** Adds the small candidates of keyframe `kf_id` of map `map_id`, forgets
    *  kept ones not joined in the last `keyframes` keyframes (of any map;
    *  keyframe ids grow), and returns the joined ones that reached
-   *  `p.min_points`, taken out of the pool. */
+   *  `p.min_points`, taken out of the pool. Reads the points of map
+   *  `map_id` only: call with its update lock held. */
   std::vector<ObjectCandidate> add(std::vector<ObjectCandidate> small, int64_t map_id, int64_t kf_id, int keyframes,
                                    const LtdaParams& p);
   /** Forgets the kept candidates of one map (tracking lost: the old views
