@@ -341,20 +341,17 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
     const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id;
     if ((mp && mp->map_object == o.id) || of_class) support++;
     labelled += of_class;
-    if (i < kf.depth.size() && kf.depth[i] > 0) {
-      rect_depth++;
-      rect_front += kf.depth[i] < z - occlusion_margin_;
-    }
+    if (!(i < kf.depth.size() && kf.depth[i] > 0)) continue;  // no depth: no place evidence
+    rect_depth++;
+    rect_front += kf.depth[i] < z - occlusion_margin_;
     if (pt.x < cx0 || pt.x > cx1 || pt.y < cy0 || pt.y > cy1) continue;
-    if (i < kf.depth.size() && kf.depth[i] > 0) {
-      here.with_depth++;
-      if (kf.depth[i] > z + occlusion_margin_) here.through++;
-      // ... or onto another object standing where it stood.
-      const KeypointMeta* km = kf.meta.empty() ? nullptr : &kf.meta[i];
-      if (km && km->label != KpLabel::Dynamic && isObjectClass(km->class_id, ltda_) && km->class_id != o.class_id &&
-          std::abs(kf.depth[i] - z) <= occlusion_margin_)
-        here.other++;
-    }
+    here.with_depth++;
+    if (kf.depth[i] > z + occlusion_margin_) here.through++;
+    // ... or onto another object standing where it stood.
+    const KeypointMeta* km = kf.meta.empty() ? nullptr : &kf.meta[i];
+    if (km && km->label != KpLabel::Dynamic && isObjectClass(km->class_id, ltda_) && km->class_id != o.class_id &&
+        std::abs(kf.depth[i] - z) <= occlusion_margin_)
+      here.other++;
   }
   // Nothing of its class detected on its place, in full view and mostly not
   // hidden: its own points found there are no support (they may be the
@@ -466,7 +463,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       ev = Evidence{};
       now.with_depth = now.through = now.other = 0;
     }
-    if (now.expected > 0 || now.with_depth > 0 || now.undetected > 0) {
+    if (now.expected > 0 || now.with_depth > 0 || undetected) {
       now.keyframes = 1;
       ev += now;
     }
