@@ -217,6 +217,49 @@ TEST(DepthRepopulation, TableTopAcrossTheBoxIsNoOccluderForSeeThroughClasses) {
   EXPECT_EQ(h.countLabel(KpLabel::Dynamic), 4u);
 }
 
+// A table seen from above: its top recedes from 2.7 m (the thin front edge)
+// to 3.3 m, the wall under it is at 4.3 m. From the nearest point (the paper's
+// minimum) the back of the top lies beyond depth_margin and is taken for
+// background; with class_percentile the table's depth is the 20th percentile
+// of its box and the whole top is on it, the wall still behind.
+TEST(DepthRepopulation, ClassPercentilePlacesATableDeeperThanItsFrontEdge) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.3f));
+  for (int y = 150; y < 250; y++) depth(cv::Rect(200, y, 240, 1)).setTo(2.7f + 0.006f * static_cast<float>(y - 150));
+  Detections d;
+  d.boxes = {box(200, 150, 240, 230, 67)};
+  const std::vector<cv::Point2f> pts = {{300, 155}, {320, 245}, {320, 330}};  // front edge, back of the top, wall
+  auto run = [&](const std::string& params, Frame& f) {
+    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", params);
+    f = depthFrame(depth, pts);
+    rep->classify(f, d, {});
+    EXPECT_FALSE(rep->lastStats().at(0).occluded) << params;
+    return rep->lastStats().at(0).object_depth;
+  };
+  Frame minimum, pct, other;
+  EXPECT_NEAR(run("see_through_classes: [67]", minimum), 2.7, 0.01);
+  EXPECT_EQ(minimum.meta[0].class_id, 67);
+  EXPECT_EQ(minimum.meta[1].reason, KpReason::BoxBackground);
+  EXPECT_EQ(minimum.meta[2].reason, KpReason::BoxBackground);
+
+  const double z = run("{see_through_classes: [67], class_percentile: {dining table: 20}}", pct);
+  EXPECT_GT(z, 2.9);  // 20 % of the box samples: within the top (43 % of the rows)
+  EXPECT_LT(z, 3.1);
+  for (int i : {0, 1}) {
+    EXPECT_EQ(pct.meta[i].label, KpLabel::Movable) << i;
+    EXPECT_EQ(pct.meta[i].class_id, 67) << i;
+  }
+  EXPECT_EQ(pct.meta[2].reason, KpReason::BoxBackground);
+
+  // Other classes keep min_percentile.
+  EXPECT_NEAR(run("{see_through_classes: [67], class_percentile: {chair: 20}}", other), 2.7, 0.01);
+  EXPECT_EQ(other.meta[1].reason, KpReason::BoxBackground);
+
+  register_classifiers_plugins();
+  auto p = create<KeypointClassifier>("dslam::DepthRepopulation");
+  EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {desk: 20}"), {}), ConfigError);
+  EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {chair: 60}"), {}), ConfigError);
+}
+
 // An unlabelled box at 1.5 m covers the left 40 % of a table's box (table at
 // 3 m): the near layer does not span the box, the occluder is still caught.
 TEST(DepthRepopulation, UnlabelledThingInFrontOfPartOfABoxIsStillAnOccluder) {

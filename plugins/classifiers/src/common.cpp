@@ -39,7 +39,7 @@ std::vector<int> cocoIdList(const Params& p, const std::string& key) {
   return out;
 }
 
-ClassValues classValues(const Params& p, const std::string& key) {
+ClassValues classValues(const Params& p, const std::string& key, bool need_default) {
   ClassValues cv;
   bool have_default = false;
   for (const auto& [k, v] : p.getDoubleMap(key)) {
@@ -60,7 +60,7 @@ ClassValues classValues(const Params& p, const std::string& key) {
                         "or 'default')");
     cv.by_class[id] = v;
   }
-  if (!have_default)
+  if (need_default && !have_default)
     throw ConfigError(where(p) + "parameter '" + key + "': needs a 'default' entry for unlisted classes");
   return cv;
 }

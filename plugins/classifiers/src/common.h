@@ -52,7 +52,7 @@ std::vector<int> cocoIdList(const Params& p, const std::string& key);
 
 /** Per-class value map: keys are COCO names ("person", "dining table") or
  *  numeric COCO ids; key "default" gives the value of unlisted classes.
- *  ConfigError on unknown names or a missing default. */
+ *  ConfigError on unknown names or (need_default) a missing default. */
 struct ClassValues {
   std::map<int, double> by_class;
   double fallback = 0;
@@ -61,7 +61,7 @@ struct ClassValues {
     return it == by_class.end() ? fallback : it->second;
   }
 };
-ClassValues classValues(const Params& p, const std::string& key);
+ClassValues classValues(const Params& p, const std::string& key, bool need_default = true);
 
 /** A label image (semantic CV_8U or panoptic CV_32S) looked up with
  *  keypoint coordinates of an image of size `ref` (scaled if sizes differ). */

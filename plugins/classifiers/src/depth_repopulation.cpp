@@ -27,6 +27,9 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
             "Changing-SLAM 4.1; paper value not confirmed, see docs/classifiers.md)"),
       P_double("min_percentile", 0,
                "object depth = this percentile of the box depths (0 = minimum, Changing-SLAM 4.1)", 0, 50),
+      P_map("class_percentile", "{}",
+            "per-class min_percentile (COCO names or ids; unlisted classes use min_percentile; e.g. {\"dining "
+            "table\": 10}: a table's nearest point is the thin front edge of its top)"),
       P_double("center_fraction", 0.2, "size of the central window, fraction of the box width/height", 0.01, 1),
       P_double("max_center_std", 0.3,
                "depth std (m) of the central window above which the box counts as occluded (chosen default)", 0,
@@ -73,6 +76,9 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   margin_ = m.by_class;
   margin_default_ = m.fallback;
   min_percentile_ = p.getDouble("min_percentile");
+  percentile_ = cls::classValues(p, "class_percentile", false).by_class;
+  for (const auto& [id, v] : percentile_)
+    if (v < 0 || v > 50) throw ConfigError(cls::where(p) + "parameter 'class_percentile': values must lie in [0, 50]");
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   occlusion_span_ = p.getDouble("occlusion_span");
@@ -290,7 +296,8 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     st.class_id = bb.class_id;
     auto mit = margin_.find(bb.class_id);
     st.margin = static_cast<float>(mit == margin_.end() ? margin_default_ : mit->second);
-    const Summary s = summarize(buf_, min_percentile_);
+    const auto pit = percentile_.find(bb.class_id);
+    const Summary s = summarize(buf_, pit == percentile_.end() ? min_percentile_ : pit->second);
     st.samples = s.n;
     st.min = s.min, st.max = s.max, st.mean = s.mean, st.median = s.median, st.stddev = s.stddev;
     st.object_depth = s.pct;

@@ -71,7 +71,7 @@ class DepthRepopulation : public KeypointClassifier {
   bool overlap_front_ = true;  ///< overlap_class: front
   double front_margin_ = 0.1;
   enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
-  std::map<int, double> margin_;
+  std::map<int, double> margin_, percentile_;
   double margin_default_ = 0.5;
   std::vector<BoxDepthStats> stats_;
   std::vector<float> buf_, cbuf_, xs_, ys_;
