@@ -301,4 +301,22 @@ TEST(Matcher, SE3GuidedSearchKeepsMutualMatchesUnderTheRightTransform) {
   std::vector<MapPointPtr> none(kf1->size());
   const SE3 wrong = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.3, 0, 0)) * T12;
   EXPECT_LT(matcher.searchBySE3(kf1.get(), kf2.get(), none, wrong, 7.5f), both / 20);
+
+  // Inactive points (persistence filters: a moved object's) are matched on
+  // neither side: a merge or loop must not tie them to the other map.
+  int off1 = 0, off2 = 0;
+  for (size_t i = 0; i < s1.size(); i++) {
+    const int j = test::keypointOf(s2, s1[i]);
+    if (j < 0) continue;
+    if (i % 3 == 0 && kf1->points[i]) kf1->points[i]->active = false, off1++;
+    else if (i % 3 == 1 && kf2->points[j]) kf2->points[j]->active = false, off2++;
+  }
+  ASSERT_GT(off1 + off2, 20);
+  std::vector<MapPointPtr> guided(kf1->size());
+  EXPECT_EQ(matcher.searchBySE3(kf1.get(), kf2.get(), guided, T12, 7.5f), both - off1 - off2);
+  for (size_t i = 0; i < guided.size(); i++)
+    if (guided[i]) {
+      EXPECT_TRUE(guided[i]->active) << i;
+      EXPECT_TRUE(kf1->points[i]->active) << i;
+    }
 }

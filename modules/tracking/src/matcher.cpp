@@ -312,22 +312,22 @@ int Matcher::searchBySE3(KeyFrame* kf1, KeyFrame* kf2, std::vector<MapPointPtr>&
   std::vector<int> match1(kf1->size(), -1);
   for (size_t i = 0; i < kf1->size(); i++) {
     const MapPointPtr& mp = kf1->points[i];
-    if (!mp || mp->bad || matches12[i]) continue;
+    if (!mp || mp->bad || !mp->active || matches12[i]) continue;  // inactive: persistence filters
     const Eigen::Vector3d X1 = kf1->T_cw() * mp->pos;
     const Eigen::Vector3d X2 = T21 * X1;
     match1[i] = bestInKeyFrame(kf2, *mp, X2, X2, th, p_.th_high, [&](size_t j) {
-      return !kf2->points[j] || kf2->points[j]->bad || already2.count(kf2->points[j].get());
+      return !kf2->points[j] || kf2->points[j]->bad || !kf2->points[j]->active || already2.count(kf2->points[j].get());
     });
   }
   // kf2's points into kf1.
   std::vector<int> match2(kf2->size(), -1);
   for (size_t j = 0; j < kf2->size(); j++) {
     const MapPointPtr& mp = kf2->points[j];
-    if (!mp || mp->bad || already2.count(mp.get())) continue;
+    if (!mp || mp->bad || !mp->active || already2.count(mp.get())) continue;
     const Eigen::Vector3d X2 = kf2->T_cw() * mp->pos;
     const Eigen::Vector3d X1 = T12 * X2;
     match2[j] = bestInKeyFrame(kf1, *mp, X1, X1, th, p_.th_high, [&](size_t i) {
-      return !kf1->points[i] || kf1->points[i]->bad || matches12[i];
+      return !kf1->points[i] || kf1->points[i]->bad || !kf1->points[i]->active || matches12[i];
     });
   }
   int n = 0;
