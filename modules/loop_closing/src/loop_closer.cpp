@@ -24,6 +24,10 @@ std::vector<ParamSpec> LoopClosingParams::specs() {
       P_int("min_inliers", d.min_inliers, "inliers of the SE(3) RANSAC and guided matching (ORB-SLAM: 20)", 3),
       P_int("min_total_matches", d.min_total_matches, "matches with the loop keyframe's covisible points (ORB-SLAM: 40)", 3),
       P_int("ransac_iterations", d.ransac_iterations, "3D-3D RANSAC iterations (ORB-SLAM Sim3Solver: 300)", 1),
+      P_bool("refine_correction", d.refine_correction,
+             "refine the correction of the 3D-3D RANSAC (both keyframes' depths) by the reprojection errors of "
+             "the current keyframe's keypoints on the matched points of the loop keyframe and its neighbours "
+             "(ORB-SLAM OptimizeSim3 after the Sim3Solver; the depth of a new map's few-frame points is noisy)"),
       P_int("keyframes_between_loops", d.keyframes_between_loops, "keyframes after a loop before the next detection (ORB-SLAM: 10)", 0),
       P_int("essential_min_weight", d.essential_min_weight, "covisibility weight of essential-graph edges (ORB-SLAM: 100)", 1),
       P_int("pose_graph_iterations", d.pose_graph_iterations, "essential-graph optimisation iterations (ORB-SLAM: 20)", 1),
@@ -42,6 +46,7 @@ LoopClosingParams LoopClosingParams::fromParams(const Params& p) {
   l.min_inliers = static_cast<int>(p.getInt("min_inliers"));
   l.min_total_matches = static_cast<int>(p.getInt("min_total_matches"));
   l.ransac_iterations = static_cast<int>(p.getInt("ransac_iterations"));
+  l.refine_correction = p.getBool("refine_correction");
   l.keyframes_between_loops = static_cast<int>(p.getInt("keyframes_between_loops"));
   l.essential_min_weight = static_cast<int>(p.getInt("essential_min_weight"));
   l.pose_graph_iterations = static_cast<int>(p.getInt("pose_graph_iterations"));

@@ -9,6 +9,7 @@
 #include "dslam/core/log.h"
 #include "dslam/loop_closing/loop_closer.h"
 #include "dslam/tracking/matcher.h"
+#include "dslam/tracking/pose_optimizer.h"
 
 namespace dslam {
 
@@ -90,6 +91,32 @@ bool LoopCloser::ransacSE3(KeyFrame* cur, KeyFrame* cand, const std::vector<MapP
   return countInliers(cur, cand, matches, T12, &inlier) >= p_.min_inliers;
 }
 
+bool LoopCloser::refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw) const {
+  std::vector<PoseObservation> obs;
+  for (size_t i = 0; i < matched.size(); i++) {
+    const MapPointPtr& mp = matched[i];
+    if (!mp || mp->bad) continue;
+    PoseObservation o;
+    o.Xw = mp->pos;
+    o.uv = {cur->keys_un[i].pt.x, cur->keys_un[i].pt.y};
+    o.u_right = i < cur->u_right.size() && cur->u_right[i] >= 0 ? cur->u_right[i] : -1.0;
+    o.information = cur->scale->inv_sigma2[static_cast<size_t>(cur->keys_un[i].octave)];
+    obs.push_back(o);
+  }
+  if (static_cast<int>(obs.size()) < p_.min_inliers) return false;
+  PoseOptimizerParams pp;
+  pp.fx = cur->cam.fx, pp.fy = cur->cam.fy, pp.cx = cur->cam.cx, pp.cy = cur->cam.cy, pp.bf = cur->cam.bf;
+  SE3 T = Tcw;
+  std::vector<char> out;
+  const PoseOptimizerResult r = optimizePose(T, obs, out, pp);
+  DSLAM_LOG(Debug, "  correction refined on " << obs.size() << " matches: " << r.inliers << " inliers, moved "
+                                              << (T.inverse().translation() - Tcw.inverse().translation()).norm()
+                                              << " m");
+  if (r.inliers < p_.min_inliers) return false;
+  Tcw = T;
+  return true;
+}
+
 bool LoopCloser::verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Candidate& out) {
   Matcher bow_matcher(0.75f, true);
   Matcher guided;
@@ -119,9 +146,14 @@ bool LoopCloser::verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Cand
     for (KeyFrame* k : group)
       for (const auto& mp : k->points)
         if (mp && !mp->bad && mp->active && seen.insert(mp->id).second) c.loop_points.push_back(mp);
-    const SE3 Tcw_corr = c.T12 * cand->T_cw();
+    SE3 Tcw_corr = c.T12 * cand->T_cw();
     std::vector<MapPointPtr> matched = c.matches;
     guided.searchByProjection(cur, Tcw_corr, c.loop_points, matched, 10);
+    if (p_.refine_correction && refineCorrection(cur, matched, Tcw_corr)) {
+      c.T12 = Tcw_corr * cand->T_wc();
+      matched = c.matches;  // matched again with the refined pose
+      guided.searchByProjection(cur, Tcw_corr, c.loop_points, matched, 10);
+    }
     c.total = static_cast<int>(std::count_if(matched.begin(), matched.end(), [](const MapPointPtr& p) { return p != nullptr; }));
     DSLAM_LOG(Debug, "  candidate " << cand->id << ": " << c.inliers << " inliers, " << c.total << " matches with its neighbourhood");
     if (c.total < p_.min_total_matches) continue;

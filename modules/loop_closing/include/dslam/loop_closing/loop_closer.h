@@ -40,6 +40,7 @@ struct LoopClosingParams {
   int min_inliers = 20;            ///< RANSAC + guided-matching inliers (ORB-SLAM: 20)
   int min_total_matches = 40;      ///< matches with the loop's covisible points (ORB-SLAM: 40)
   int ransac_iterations = 300;     ///< ORB-SLAM Sim3Solver: 300
+  bool refine_correction = true;   ///< refine the 3D-3D correction by reprojection errors (ORB-SLAM OptimizeSim3)
   int keyframes_between_loops = 10;///< no detection for this many keyframes after a loop (ORB-SLAM: 10)
   int essential_min_weight = 100;  ///< covisibility edges of the essential graph (ORB-SLAM: 100)
   int pose_graph_iterations = 20;  ///< ORB-SLAM: 20
@@ -94,6 +95,9 @@ class LoopCloser {
 
   void process(const KeyFramePtr& kf);
   bool verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Candidate& out);
+  /** Pose-only refinement of the corrected T_cw of `cur` on its matched
+   *  points (reprojection errors); false (Tcw unchanged) with too few inliers. */
+  bool refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw) const;
   bool ransacSE3(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, SE3& T12,
                  std::vector<char>& inlier);
   int countInliers(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, const SE3& T12,
