@@ -260,6 +260,45 @@ TEST(DepthRepopulation, ClassPercentilePlacesATableDeeperThanItsFrontEdge) {
   EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {chair: 60}"), {}), ConfigError);
 }
 
+// A monitor at 3.2 m (wall at 4 m around it) whose box has the edge of a
+// fridge at 2.2 m down its left 15 %, beyond the fridge's own box: the box is
+// occluded (Changing-SLAM: every keypoint Dynamic); with side_occluder_span
+// the monitor is the surface at the centre, the fridge's edge stays Dynamic.
+TEST(DepthRepopulation, SideOccluderLeavesTheObjectAtTheCentre) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.0f));
+  depth(cv::Rect(300, 100, 100, 100)).setTo(3.2f);  // monitor
+  depth(cv::Rect(300, 80, 15, 140)).setTo(2.2f);    // fridge edge over its left side
+  Detections d;
+  d.boxes = {box(300, 100, 100, 100, 72)};
+  const std::vector<cv::Point2f> pts = {{350, 150}, {380, 120}, {307, 150}};  // monitor, monitor, fridge edge
+  auto paper = makeClassifier<DepthRepopulation>("DepthRepopulation");
+  Frame f = depthFrame(depth, pts);
+  paper->classify(f, d, {});
+  EXPECT_TRUE(paper->lastStats().at(0).occluded);
+  EXPECT_EQ(f.countLabel(KpLabel::Dynamic), 3u);
+
+  auto side = makeClassifier<DepthRepopulation>("DepthRepopulation", "side_occluder_span: 0.3");
+  Frame g = depthFrame(depth, pts);
+  side->classify(g, d, {});
+  const BoxDepthStats& st = side->lastStats().at(0);
+  EXPECT_FALSE(st.occluded);
+  EXPECT_NEAR(st.occluder_depth, 2.2, 0.01);
+  EXPECT_NEAR(st.object_depth, 3.2, 0.01);
+  for (int i : {0, 1}) {
+    EXPECT_EQ(g.meta[i].label, KpLabel::Movable) << i;
+    EXPECT_EQ(g.meta[i].class_id, 72) << i;
+  }
+  EXPECT_EQ(g.meta[2].label, KpLabel::Dynamic);
+  EXPECT_EQ(g.meta[2].reason, KpReason::Occluded);
+
+  // An occluder over 40 % of the width is no side occluder: the box stays unusable.
+  depth(cv::Rect(300, 80, 40, 140)).setTo(2.2f);
+  Frame h = depthFrame(depth, pts);
+  side->classify(h, d, {});
+  EXPECT_TRUE(side->lastStats().at(0).occluded);
+  EXPECT_EQ(h.countLabel(KpLabel::Dynamic), 3u);
+}
+
 // An unlabelled box at 1.5 m covers the left 40 % of a table's box (table at
 // 3 m): the near layer does not span the box, the occluder is still caught.
 TEST(DepthRepopulation, UnlabelledThingInFrontOfPartOfABoxIsStillAnOccluder) {

@@ -45,6 +45,14 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
                "tables); an unlabelled thing in front covers part of the box (chosen; 0 = off, every deep centre "
                "is an occluder)",
                0, 1),
+      P_double("side_occluder_span", 0,
+               "an occluded box (not of dynamic_classes) whose near layer spans less than this fraction of its "
+               "width, with one surface at its centre (centre std <= max_center_std), has something standing in "
+               "front of one side (another object's edge beyond its jittered box): its object is the surface at the "
+               "centre, whose nearest depth within depth_margin of the centre depth is the object depth; the "
+               "keypoints in front of it stay Dynamic (Occluded), those on it and behind it are labelled as usual "
+               "(ours; 0 = off, the whole box Dynamic as in Changing-SLAM)",
+               0, 1),
       P_list("see_through_classes", ParamType::IntList, "[]",
              "classes seen through under their top (tables: [67], COCO dining table): their near layer need only "
              "span occlusion_span of the box width, the top being a band across the box and the legs too thin to "
@@ -82,6 +90,7 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   occlusion_span_ = p.getDouble("occlusion_span");
+  side_span_ = p.getDouble("side_occluder_span");
   see_through_classes_ = cls::cocoIdList(p, "see_through_classes");
   overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
@@ -316,13 +325,26 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
       const bool table = cls::contains(see_through_classes_, bb.class_id);
       if (st.near_span_x >= occlusion_span_ && (table || st.near_span_y >= occlusion_span_)) st.occluded = false;
     }
+    if (st.occluded && side_span_ > 0 && !dyn_class && st.center_std <= max_center_std_ &&
+        st.near_span_x < side_span_) {
+      // Something in front of one side only: the object is the surface at
+      // the centre; its nearest depth within the margin of the centre depth.
+      const float from = st.center_depth - st.margin;
+      float nearest = st.center_depth;
+      for (float d : buf_)
+        if (d >= from && d < nearest) nearest = d;
+      st.occluder_depth = st.object_depth;
+      st.object_depth = nearest;
+      st.occluded = false;
+    }
     stats_.push_back(st);
     DSLAM_LOG(Trace, "DepthRepopulation frame " << frame.index() << " box class " << bb.class_id << " ["
                                                  << box.x << ", " << box.y << ", " << box.width << " x " << box.height
                                                  << "]: object depth " << st.object_depth << " m, centre "
                                                  << st.center_depth << " m (std " << st.center_std
                                                  << "), near layer " << st.near_span_x << " x " << st.near_span_y
-                                                 << (st.occluded ? ": occluded" : ""));
+                                                 << (st.occluded ? ": occluded" : "")
+                                                 << (st.occluder_depth > 0 ? ": side occluder" : ""));
 
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
@@ -333,6 +355,10 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
         continue;
       }
       const float d = keypointDepth(frame, i);
+      if (st.occluder_depth > 0 && (!validDepth(d) || d < st.object_depth - front_margin_)) {
+        decide(i, KpLabel::Dynamic, KpReason::Occluded, bb.class_id);  // on the occluder at the side
+        continue;
+      }
       if (enough && validDepth(d) && d > st.object_depth + st.margin)
         decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // behind: not on the class
       else

@@ -24,6 +24,10 @@ struct BoxDepthStats {
    *  of the box width / height (computed when the centre test fired). */
   float near_span_x = 0, near_span_y = 0;
   bool occluded = false;   ///< unlabelled occluder detected: keypoints unusable
+  /** side_occluder_span: depth of the occluder at one side of the box (its
+   *  nearest surface), the object depth then being the centre's surface
+   *  (0 = no side occluder). */
+  float occluder_depth = 0;
 };
 
 /** Keypoints inside boxes are split by depth (Changing-SLAM, Sec. 4.1):
@@ -65,6 +69,7 @@ class DepthRepopulation : public KeypointClassifier {
  private:
   std::vector<int> classes_, dynamic_classes_{1}, see_through_classes_;
   double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3, occlusion_span_ = 0.8,
+         side_span_ = 0,
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
   bool exclude_overlap_ = true;
