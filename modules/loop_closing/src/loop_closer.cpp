@@ -33,6 +33,10 @@ std::vector<ParamSpec> LoopClosingParams::specs() {
       P_int("pose_graph_iterations", d.pose_graph_iterations, "essential-graph optimisation iterations (ORB-SLAM: 20)", 1),
       P_bool("global_ba", d.global_ba, "full bundle adjustment after each loop or merge (ORB-SLAM2: yes)"),
       P_int("global_ba_iterations", d.global_ba_iterations, "global BA iterations (ORB-SLAM2: 10)", 1),
+      P_bool("global_ba_reject_outliers", d.global_ba_reject_outliers,
+             "global BA in two passes: optimise, drop the observations over the chi2 95% bound, optimise again (as "
+             "local BA and ORB-SLAM3's merge BA; ORB-SLAM2's global BA keeps every observation: false). Points fused "
+             "wrongly across a merge otherwise pull the two maps apart (docs/slam.md)"),
       P_bool("merge_maps", d.merge_maps, "a candidate in another map of the atlas merges that map into the current one"),
   };
 }
@@ -52,6 +56,7 @@ LoopClosingParams LoopClosingParams::fromParams(const Params& p) {
   l.pose_graph_iterations = static_cast<int>(p.getInt("pose_graph_iterations"));
   l.global_ba = p.getBool("global_ba");
   l.global_ba_iterations = static_cast<int>(p.getInt("global_ba_iterations"));
+  l.global_ba_reject_outliers = p.getBool("global_ba_reject_outliers");
   l.merge_maps = p.getBool("merge_maps");
   return l;
 }

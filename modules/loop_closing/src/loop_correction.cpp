@@ -227,7 +227,7 @@ void LoopCloser::globalBundleAdjustment(Map& map) {
   }
   BAOptions opt;
   opt.max_iterations = p_.global_ba_iterations;
-  opt.reject_outliers = false;
+  opt.reject_outliers = p_.global_ba_reject_outliers;
   const BAResult r = backend_->bundleAdjust(prob, opt);
   if (!r.success) {
     DSLAM_LOG(Warn, "global BA failed: " << r.message);

@@ -46,6 +46,7 @@ struct LoopClosingParams {
   int pose_graph_iterations = 20;  ///< ORB-SLAM: 20
   bool global_ba = true;           ///< full BA after a loop (ORB-SLAM2: yes)
   int global_ba_iterations = 10;
+  bool global_ba_reject_outliers = true;  ///< optimise, drop chi2 outliers, optimise again (ORB-SLAM2's GBA: no)
   bool merge_maps = true;          ///< candidates in other maps merge them into the current one
   uint64_t seed = 42;
 
