@@ -250,14 +250,17 @@ TEST(DepthRepopulation, ClassPercentilePlacesATableDeeperThanItsFrontEdge) {
   }
   EXPECT_EQ(pct.meta[2].reason, KpReason::BoxBackground);
 
-  // Other classes keep min_percentile.
+  // Other classes keep min_percentile ('default' replaces it).
   EXPECT_NEAR(run("{see_through_classes: [67], class_percentile: {chair: 20}}", other), 2.7, 0.01);
   EXPECT_EQ(other.meta[1].reason, KpReason::BoxBackground);
+  Frame dflt;
+  EXPECT_NEAR(run("{see_through_classes: [67], class_percentile: {chair: 0, default: 20}}", dflt), z, 1e-6);
 
   register_classifiers_plugins();
   auto p = create<KeypointClassifier>("dslam::DepthRepopulation");
   EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {desk: 20}"), {}), ConfigError);
   EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {chair: 60}"), {}), ConfigError);
+  EXPECT_THROW(p->configure(Params::resolve(p->paramSpecs(), "class_percentile: {default: -1}"), {}), ConfigError);
 }
 
 // A monitor at 3.2 m (wall at 4 m around it) whose box has the edge of a

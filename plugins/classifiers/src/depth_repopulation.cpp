@@ -28,8 +28,9 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
       P_double("min_percentile", 0,
                "object depth = this percentile of the box depths (0 = minimum, Changing-SLAM 4.1)", 0, 50),
       P_map("class_percentile", "{}",
-            "per-class min_percentile (COCO names or ids; unlisted classes use min_percentile; e.g. {\"dining "
-            "table\": 10}: a table's nearest point is the thin front edge of its top)"),
+            "per-class min_percentile (COCO names or ids; unlisted classes use min_percentile, or the entry "
+            "'default' when given; e.g. {\"dining table\": 20}: a table's nearest point is the thin front edge "
+            "of its top)"),
       P_double("center_fraction", 0.2, "size of the central window, fraction of the box width/height", 0.01, 1),
       P_double("max_center_std", 0.3,
                "depth std (m) of the central window above which the box counts as occluded (chosen default)", 0,
@@ -84,9 +85,15 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   margin_ = m.by_class;
   margin_default_ = m.fallback;
   min_percentile_ = p.getDouble("min_percentile");
-  percentile_ = cls::classValues(p, "class_percentile", false).by_class;
+  const cls::ClassValues pc = cls::classValues(p, "class_percentile", false);
+  percentile_ = pc.by_class;
+  if (p.getDoubleMap("class_percentile").count("default")) percentile_[-1] = pc.fallback;  // checked below
   for (const auto& [id, v] : percentile_)
     if (v < 0 || v > 50) throw ConfigError(cls::where(p) + "parameter 'class_percentile': values must lie in [0, 50]");
+  if (auto it = percentile_.find(-1); it != percentile_.end()) {  // 'default': the unlisted classes' percentile
+    min_percentile_ = it->second;
+    percentile_.erase(it);
+  }
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   occlusion_span_ = p.getDouble("occlusion_span");
