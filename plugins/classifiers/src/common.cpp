@@ -41,11 +41,10 @@ std::vector<int> cocoIdList(const Params& p, const std::string& key) {
 
 ClassValues classValues(const Params& p, const std::string& key, bool need_default) {
   ClassValues cv;
-  bool have_default = false;
   for (const auto& [k, v] : p.getDoubleMap(key)) {
     if (k == "default") {
       cv.fallback = v;
-      have_default = true;
+      cv.has_default = true;
       continue;
     }
     int id = coco::idFromName(k);
@@ -60,7 +59,7 @@ ClassValues classValues(const Params& p, const std::string& key, bool need_defau
                         "or 'default')");
     cv.by_class[id] = v;
   }
-  if (need_default && !have_default)
+  if (need_default && !cv.has_default)
     throw ConfigError(where(p) + "parameter '" + key + "': needs a 'default' entry for unlisted classes");
   return cv;
 }

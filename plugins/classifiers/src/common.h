@@ -56,6 +56,7 @@ std::vector<int> cocoIdList(const Params& p, const std::string& key);
 struct ClassValues {
   std::map<int, double> by_class;
   double fallback = 0;
+  bool has_default = false;  ///< the map had a "default" entry (fallback is its value)
   double at(int class_id) const {
     auto it = by_class.find(class_id);
     return it == by_class.end() ? fallback : it->second;

@@ -84,16 +84,15 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   const cls::ClassValues m = cls::classValues(p, "depth_margin");
   margin_ = m.by_class;
   margin_default_ = m.fallback;
-  min_percentile_ = p.getDouble("min_percentile");
   const cls::ClassValues pc = cls::classValues(p, "class_percentile", false);
   percentile_ = pc.by_class;
-  if (p.getDoubleMap("class_percentile").count("default")) percentile_[-1] = pc.fallback;  // checked below
-  for (const auto& [id, v] : percentile_)
+  // 'default' in class_percentile: the unlisted classes' percentile.
+  min_percentile_ = pc.has_default ? pc.fallback : p.getDouble("min_percentile");
+  auto check = [&](double v) {
     if (v < 0 || v > 50) throw ConfigError(cls::where(p) + "parameter 'class_percentile': values must lie in [0, 50]");
-  if (auto it = percentile_.find(-1); it != percentile_.end()) {  // 'default': the unlisted classes' percentile
-    min_percentile_ = it->second;
-    percentile_.erase(it);
-  }
+  };
+  for (const auto& [id, v] : percentile_) check(v);
+  check(min_percentile_);  // min_percentile's own range, or the 'default' entry's
   center_fraction_ = p.getDouble("center_fraction");
   max_center_std_ = p.getDouble("max_center_std");
   occlusion_span_ = p.getDouble("occlusion_span");
