@@ -244,6 +244,34 @@ TEST(MapObject, ReidentifiesAnObjectMovedRigidlyOnly) {
   EXPECT_FALSE(reidentify(sharing, old, p).moved);
 }
 
+TEST(MapObject, ReidentifiesASmallObjectMoved) {
+  // The face of a suitcase: 10 points on a 15 x 15 cm patch (no triangle of
+  // them spans more than 0.012 m^2), moved 0.6 m sideways. Hypotheses are
+  // not bounded by the triangle's size, only by its shape.
+  auto face = blob({0.9, 0.45, 2.2}, 10, 0, 0.15, 33);
+  for (auto& q : face) q->pos.z() = 2.2 + 0.1 * (q->pos.z() - 2.2);
+  const MapObject old = objectOf(33, face, 3);
+  MapObject seen;
+  seen.class_id = 33;
+  for (const auto& q : movedCopy(face, Eigen::Matrix3d::Identity(), {-0.6, 0, 0}, 100)) seen.points[q->id] = q;
+  seen.refresh();
+  const ObjectMotion m = reidentify(seen, old, ReidParams{});
+  EXPECT_TRUE(m.moved);
+  EXPECT_GE(m.inliers, 9);
+  EXPECT_NEAR(m.shift, 0.6, 0.03);
+  // Collinear points fix no rotation: no hypothesis, no move.
+  for (size_t i = 0; i < face.size(); i++) face[i]->pos = Eigen::Vector3d(0.9 + 0.015 * static_cast<double>(i), 0.45, 2.2);
+  const MapObject line = objectOf(33, face, 3);
+  MapObject line_seen;
+  line_seen.class_id = 33;
+  for (const auto& q : movedCopy(face, Eigen::Matrix3d::Identity(), {-0.6, 0, 0}, 200, 6)) {
+    q->pos = Eigen::Vector3d(q->pos.x(), 0.45, 2.2);  // on the line exactly
+    line_seen.points[q->id] = q;
+  }
+  line_seen.refresh();
+  EXPECT_FALSE(reidentify(line_seen, line, ReidParams{}).moved);
+}
+
 TEST(MapObject, SmallViewsOfOneObjectAddUpToACandidate) {
   LtdaParams p;  // min_points 5, threshold 0.25 m
   SmallCandidatePool pool;

@@ -407,13 +407,17 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
   };
   std::mt19937 rng(20161);  // fixed seed: the same map gives the same answer
   std::vector<size_t> best_in;
-  const double min_side = 2 * p.inlier_m;
   for (int it = 0; it < p.iterations; it++) {
     const size_t i = rng() % n, j = rng() % n, k = rng() % n;
     if (i == j || j == k || i == k) continue;
-    // A well-spread triangle on both sides, and the same shape (rigid).
+    // A triangle that fixes a rotation (sides longer than the inlier
+    // distance, not nearly collinear: sine of its angle at i at least 0.25),
+    // and the same shape on both sides (rigid). Its size is not bounded
+    // further: the points of a small object (a suitcase's face, 20 cm) span
+    // no more; the consensus decides.
     const Eigen::Vector3d u = src[j] - src[i], v = src[k] - src[i];
-    if (u.cross(v).norm() < min_side * min_side) continue;
+    const double nu = u.norm(), nv = v.norm();
+    if (nu < p.inlier_m || nv < p.inlier_m || u.cross(v).norm() < 0.25 * nu * nv) continue;
     if (std::abs(u.norm() - (dst[j] - dst[i]).norm()) > p.inlier_m ||
         std::abs(v.norm() - (dst[k] - dst[i]).norm()) > p.inlier_m)
       continue;
