@@ -578,6 +578,28 @@ TEST(EkfObjectTracker, LostTrackIsDroppedAndComesBackAsNew) {
   EXPECT_TRUE(ekf->tracks().empty());
 }
 
+TEST(EkfObjectTracker, ObjectIdsAreNeverReused) {
+  // Frame 0: a chair is labelled with a new id, but tracking is lost (no
+  // pose): no track is made. Frame 1: a table elsewhere. Its id must differ:
+  // both are on keypoints (and map points) now.
+  Scene s;
+  s.objs = {{62, {0.3, 0.2, 3.0}, {0, 0, 0}, 0.5, 0.8}, {67, {-0.8, 0.3, 3.0}, {0, 0, 0}, 0.8, 0.6}};
+  auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "", &s.cam);
+  Frame f0, f1;
+  Detections d0, d1;
+  ekf->classify(f0, d0, s.frame(0, f0, d0, {1, 0}));
+  ekf->afterTracking(f0, d0, std::nullopt);
+  EXPECT_TRUE(ekf->tracks().empty());
+  ekf->classify(f1, d1, s.frame(1, f1, d1, {0, 1}));
+  ekf->afterTracking(f1, d1, s.pose(1));
+  const int chair = f0.meta[1].object_id, table = f1.meta[1].object_id;
+  EXPECT_GE(chair, 0);
+  EXPECT_GE(table, 0);
+  EXPECT_NE(chair, table);
+  ASSERT_EQ(ekf->tracks().size(), 1u);
+  EXPECT_EQ(ekf->tracks()[0].id, table);  // the track carries the id its keypoints got
+}
+
 TEST(EkfObjectTracker, BoxCutByTheImageBorderIsNoEvidenceOfMotion) {
   // A static 1.6 m table whose right part is outside the image: the detector's
   // box is cut at the border, and as the camera moves the cut box's centre

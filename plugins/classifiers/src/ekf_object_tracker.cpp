@@ -232,6 +232,10 @@ void EkfObjectTracker::classify(Frame& frame, const Detections& det, const Class
   if (!det.valid) return;
   const std::optional<SE3> pose = ctx.predicted_T_wc ? ctx.predicted_T_wc : ctx.previous_T_wc;
   pending_ = associate(frame, det, pose);
+  // The ids reserved for new tracks are on this frame's keypoints now (and
+  // on the map points made of them): never given to another box, even when
+  // afterTracking() creates no track (no pose, no depth in the box).
+  for (int id : pending_.new_ids) next_id_ = std::max(next_id_, id + 1);
   for (size_t b = 0; b < det.boxes.size(); b++) {
     const int t = pending_.box_track[b];
     if (t == -2) continue;
