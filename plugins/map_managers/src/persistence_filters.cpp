@@ -518,14 +518,15 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (free || undetected_enough || (judged && ev.found < min_found_fraction_ * ev.expected)) {
       o.belief = objectBeliefMissed(o.belief, belief_, free);
       stats_.misses++;
-      traceObject(*kf, o,
-                  (std::string(free ? "negative evidence (its place seen through"
-                                    : undetected_enough ? "negative evidence (nothing of its class detected on its place"
-                                                        : "negative evidence (its points not found") +
-                   "; points found " + std::to_string(ev.found) + " of " + std::to_string(ev.expected) +
-                   ", place keypoints " + std::to_string(ev.with_depth) + " with depth, " + std::to_string(ev.through) +
-                   " through, " + std::to_string(ev.keyframes) + " keyframes)")
-                      .c_str());
+      if (log::enabled(log::Level::Debug))  // the counts behind the decision
+        traceObject(*kf, o,
+                    (std::string(free ? "negative evidence (its place seen through"
+                                      : undetected_enough ? "negative evidence (nothing of its class detected on its place"
+                                                          : "negative evidence (its points not found") +
+                     "; points found " + std::to_string(ev.found) + " of " + std::to_string(ev.expected) +
+                     ", place keypoints " + std::to_string(ev.with_depth) + " with depth, " +
+                     std::to_string(ev.through) + " through, " + std::to_string(ev.keyframes) + " keyframes)")
+                        .c_str());
       if (o.belief < belief_threshold_) {
         setGone(o);
         continue;
