@@ -418,8 +418,7 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
     const Eigen::Vector3d u = src[j] - src[i], v = src[k] - src[i];
     const double nu = u.norm(), nv = v.norm();
     if (nu < p.inlier_m || nv < p.inlier_m || u.cross(v).norm() < 0.25 * nu * nv) continue;
-    if (std::abs(u.norm() - (dst[j] - dst[i]).norm()) > p.inlier_m ||
-        std::abs(v.norm() - (dst[k] - dst[i]).norm()) > p.inlier_m)
+    if (std::abs(nu - (dst[j] - dst[i]).norm()) > p.inlier_m || std::abs(nv - (dst[k] - dst[i]).norm()) > p.inlier_m)
       continue;
     Eigen::Matrix3d R;
     Eigen::Vector3d t;
