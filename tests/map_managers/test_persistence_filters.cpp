@@ -450,7 +450,8 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
   // A frame seeing the chair (its keypoints labelled, with depth), nothing matched.
   test::SynthWorld view = s.world.w;
   std::vector<int> seen;
-  Frame f = view.frame(poseAt({0, 0, 0}), 30, &seen);
+  const SE3 pose = poseAt({0, 0, 0});
+  Frame f = view.frame(pose, 30, &seen);
   f.input.timestamp = 1.0;
   int on = 0;
   for (size_t k = 0; k < seen.size(); k++)
@@ -461,9 +462,9 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
     }
   ASSERT_GE(on, 10);
   std::vector<MapPointPtr> matched(f.size());
-  EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, matched));
+  EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   f.input.timestamp = 1.5;  // within new_object_keyframe_gap (1 s): once is enough
-  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   // Matched to established points (seen by 3 keyframes): nothing to ask for.
   f.input.timestamp = 3.0;
   auto kf1 = s.keyframe(0.0, poseAt({0, 0, 0}), true);
@@ -476,17 +477,52 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
       mp->addObservation(kf2.get(), 0);
       matched[k] = mp;
     }
-  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   // Dynamic keypoints (a person, a moving object) ask for nothing.
   std::fill(matched.begin(), matched.end(), nullptr);
   for (auto& m : f.meta) m.label = KpLabel::Dynamic;
-  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, matched));
+  EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   EXPECT_EQ(filter->stats().keyframe_requests, 1);
   for (auto& m : f.meta) m.label = KpLabel::Static;
   auto dflt = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // on by default (new_object_keypoints 10)
-  EXPECT_TRUE(dflt->wantsKeyFrame(s.map, f, matched));
+  EXPECT_TRUE(dflt->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   auto off = makeFilter<ObjectPersistenceFilter>("{new_object_keypoints: 0}", atlas);
-  EXPECT_FALSE(off->wantsKeyFrame(s.map, f, matched));
+  EXPECT_FALSE(off->wantsKeyFrame(s.map, f, pose, view.cam, matched));
+}
+
+TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenThePlaceOfAnObjectNotSeenForLongIsInView) {
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{}", atlas);  // place_check_gap 2 s, long_term_s 2 s
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObject& o = onlyObject(*s.map);
+  ASSERT_TRUE(o.active);
+  // A frame with nothing labelled (no new object to ask for), the chair's place in view.
+  test::SynthWorld view = s.world.w;
+  Frame f = view.frame(poseAt({0.1, 0, 0}), 30);
+  const std::vector<MapPointPtr> matched(f.size());
+  auto ask = [&](double t, const SE3& pose) {
+    f.input.timestamp = t;
+    return filter->wantsKeyFrame(s.map, f, pose, view.cam, matched);
+  };
+  EXPECT_FALSE(ask(1.5, poseAt({0.1, 0, 0})));  // seen 1.5 s ago: not long
+  EXPECT_TRUE(ask(2.5, poseAt({0.1, 0, 0})));
+  EXPECT_FALSE(ask(3.6, poseAt({0.1, 0, 0})));  // asked 1.1 s ago for this place
+  EXPECT_FALSE(ask(5.0, poseAt({0.1, 0, 0}, 90)));  // looking away
+  EXPECT_FALSE(ask(5.0, poseAt({0, 0, 2.95})));  // its box partly behind the camera
+  EXPECT_FALSE(ask(5.0, poseAt({0, 0, -4})));  // farther than max_range (6 m)
+  EXPECT_TRUE(ask(5.0, poseAt({-0.1, 0, 0})));
+  EXPECT_EQ(filter->stats().place_requests, 2);
+  EXPECT_EQ(filter->stats().keyframe_requests, 0);
+  // The keyframe it asked for sees the chair there: seen now, nothing more to ask.
+  filter->onKeyFrame(s.keyframe(5.1, poseAt({-0.1, 0, 0}), true));
+  EXPECT_DOUBLE_EQ(o.last_seen_t, 5.1);
+  EXPECT_FALSE(ask(6.5, poseAt({0.1, 0, 0})));
+  // Off.
+  auto off = makeFilter<ObjectPersistenceFilter>("{place_check_gap: 0}", atlas);
+  f.input.timestamp = 20.0;
+  EXPECT_FALSE(off->wantsKeyFrame(s.map, f, poseAt({0.1, 0, 0}), view.cam, matched));
+  EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, poseAt({0.1, 0, 0}), view.cam, matched));
 }
 
 TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {

@@ -661,7 +661,7 @@ FrameResult System::track(const SensorFrame& in) {
     checkPlaceRecognition();
     // The tracker has already dropped the frame's outliers from its matches.
     const TrackedFrame& lf = tracker_->lastFrame();
-    if (maps_->wantsKeyFrame(tracker_->map(), lf.f, lf.points)) tracker_->requestKeyFrame();
+    if (lf.T_cw && maps_->wantsKeyFrame(tracker_->map(), lf.f, *lf.T_cw, lf.cam, lf.points)) tracker_->requestKeyFrame();
   }
   if (mode_ == config::Mode::Sequential) {
     mapper_->processAll();

@@ -32,6 +32,34 @@ bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv,
   return kf.cam.bounds.contains(uv.x, uv.y);
 }
 
+/** Image rectangle of an object's 3D box seen from pose T_cw, and the
+ *  depth of its centroid. */
+struct PlaceRect {
+  float x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  double z = 0;
+};
+/** Whether the whole place of `o` (its 3D box) is in view of a camera at
+ *  T_cw: the centroid in front and nearer than `max_range`, every box corner
+ *  in front and inside the image (at the image border a present object is
+ *  easily missed: few of its keypoints, a cut box). */
+bool placeInView(const SE3& T_cw, const CameraIntrinsics& cam, const MapObject& o, double max_range, PlaceRect& r) {
+  const Eigen::Vector3d C = T_cw * o.centroid;
+  r.z = C.z();
+  if (r.z < 0.1 || r.z > max_range ||
+      !cam.bounds.contains(static_cast<float>(cam.fx * C.x() / r.z + cam.cx), static_cast<float>(cam.fy * C.y() / r.z + cam.cy)))
+    return false;
+  r.x0 = r.y0 = 1e9f, r.x1 = r.y1 = -1e9f;
+  for (int k = 0; k < 8; k++) {
+    const Eigen::Vector3d Xc = T_cw * o.corner(k);
+    if (Xc.z() < 0.05) return false;
+    const float u = static_cast<float>(cam.fx * Xc.x() / Xc.z() + cam.cx);
+    const float v = static_cast<float>(cam.fy * Xc.y() / Xc.z() + cam.cy);
+    r.x0 = std::min(r.x0, u), r.x1 = std::max(r.x1, u), r.y0 = std::min(r.y0, v), r.y1 = std::max(r.y1, v);
+  }
+  const ImageBounds& b = cam.bounds;
+  return r.x0 >= b.min_x && r.y0 >= b.min_y && r.x1 <= b.max_x && r.y1 <= b.max_y && r.x1 > r.x0 && r.y1 > r.y0;
+}
+
 /** Whether keyframe `kf` should see map point `p`: it projects inside the
  *  image (pixel `uv`, depth `z`), nearer than `max_range`, within the
  *  point's scale-invariance distance range and within 60 degrees of its
@@ -94,6 +122,7 @@ std::string PersistenceStats::str() const {
          std::to_string(deactivated) + " deactivated, " + std::to_string(reactivated) + " reactivated, " +
          std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken" +
          (keyframe_requests > 0 ? ", " + std::to_string(keyframe_requests) + " keyframes requested" : "") +
+         (place_requests > 0 ? ", " + std::to_string(place_requests) + " keyframes requested for places" : "") +
          (merged > 0 ? ", " + std::to_string(merged) + " merged" : "") +
          (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "") +
          (accumulated > 0 ? ", " + std::to_string(accumulated) + " candidates from small views added up" : "");
@@ -208,6 +237,12 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "docs/changing.md)",
             0, 100000),
       P_double("new_object_keyframe_gap", 1.0, "at most one such keyframe request per this many seconds", 0, 1e9),
+      P_double("place_check_gap", 2.0,
+               "the whole place of an active or dormant object not seen for long_term_s in view asks for a keyframe, "
+               "at most once per this many seconds per object (and one request of any kind per "
+               "new_object_keyframe_gap), so that its place is judged also where tracking makes no keyframe: a slow "
+               "revisit, a run's last frames (ours; 0 = off)",
+               0, 1e9),
   };
 }
 
@@ -252,10 +287,12 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
   new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
   last_request_t_ = -1e300;
+  place_check_gap_s_ = p.getDouble("place_check_gap");
+  place_checked_t_.clear();
 }
 
-bool ObjectPersistenceFilter::wantsKeyFrame(const std::shared_ptr<Map>& map, const Frame& f,
-                                            const std::vector<MapPointPtr>& matched) {
+bool ObjectPersistenceFilter::wantsKeyFrame(const std::shared_ptr<Map>& map, const Frame& f, const SE3& T_cw,
+                                            const CameraIntrinsics& cam, const std::vector<MapPointPtr>& matched) {
   if (new_object_keypoints_ > 0 && map && f.timestamp() - last_request_t_ >= new_object_gap_s_ &&
       f.meta.size() == f.size()) {
     std::lock_guard<std::recursive_mutex> lk(map->update_mutex);  // observations are local mapping's
@@ -276,7 +313,24 @@ bool ObjectPersistenceFilter::wantsKeyFrame(const std::shared_ptr<Map>& map, con
         return true;
       }
   }
-  return FilteringMapManager::wantsKeyFrame(map, f, matched);
+  // The place of an object not seen for long in full view: a keyframe judges it.
+  if (place_check_gap_s_ > 0 && map && f.timestamp() - last_request_t_ >= new_object_gap_s_) {
+    std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
+    for (const auto& [id, op] : map->objects()) {
+      const MapObject& o = *op;
+      if ((!o.active && !o.dormant) || o.points.empty() || f.timestamp() - o.last_seen_t <= long_term_s_) continue;
+      auto it = place_checked_t_.find(id);
+      if (it != place_checked_t_.end() && f.timestamp() - it->second < place_check_gap_s_) continue;
+      PlaceRect r;
+      if (!placeInView(T_cw, cam, o, max_range_, r)) continue;
+      place_checked_t_[id] = f.timestamp();
+      last_request_t_ = f.timestamp();
+      stats_.place_requests++;
+      DSLAM_LOG(Trace, "objects: frame " << f.index() << ": place of object " << o.id << " in view, keyframe requested");
+      return true;
+    }
+  }
+  return FilteringMapManager::wantsKeyFrame(map, f, T_cw, cam, matched);
 }
 
 ObjectPersistenceFilter::Evidence& ObjectPersistenceFilter::Evidence::operator+=(const Evidence& e) {
@@ -311,22 +365,10 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
 
 bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const {
   if (o.points.empty()) return true;
-  cv::Point2f c;
-  double z = 0;
-  if (!projectInto(kf, o.centroid, c, z) || z > max_range_) return true;
-  // Image rectangle of its 3D box (every corner in front of the camera).
-  float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
-  for (int k = 0; k < 8; k++) {
-    const Eigen::Vector3d Xc = kf.T_cw() * o.corner(k);
-    if (Xc.z() < 0.05) return true;
-    const float u = static_cast<float>(kf.cam.fx * Xc.x() / Xc.z() + kf.cam.cx);
-    const float v = static_cast<float>(kf.cam.fy * Xc.y() / Xc.z() + kf.cam.cy);
-    x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
-  }
-  // Its whole place in view: at the image border a present object is easily
-  // missed (few of its keypoints, cut box).
-  const ImageBounds& b = kf.cam.bounds;
-  if (x0 < b.min_x || y0 < b.min_y || x1 > b.max_x || y1 > b.max_y || x1 <= x0 || y1 <= y0) return true;
+  PlaceRect r;
+  if (!placeInView(kf.T_cw(), kf.cam, o, max_range_, r)) return true;
+  const double z = r.z;
+  const float x0 = r.x0, y0 = r.y0, x1 = r.x1, y1 = r.y1;
   // The central half of its place: the camera must see *through* it (depth
   // beyond the centroid by occlusion_margin), not onto something there.
   const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);

@@ -16,6 +16,7 @@ struct Frame;
 class KeyFrame;
 struct CameraIntrinsics;
 struct ScaleLevels;
+class SE3;
 
 class MapManager : public Plugin {
   DEFINE_VIRTUAL_MRPT_OBJECT(MapManager)
@@ -45,15 +46,18 @@ class MapManager : public Plugin {
    *  the time the camera relocalises. */
   virtual void onTrackingLost(const std::shared_ptr<Map>& m) { (void)m; }
   /** Called in the tracking thread after a frame tracked in map `m` that
-   *  did not become a keyframe (`matched[i]`: the map point keypoint i is
-   *  matched to, null for none and for outliers; lock `m` to read the points'
-   *  mapping state): true makes the next frame a keyframe, if mapping accepts
-   *  one (an object filter asks when a detected object the map has too few
-   *  established points on is in view). */
-  virtual bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f,
+   *  did not become a keyframe (pose `T_cw`, camera `cam`; `matched[i]`: the
+   *  map point keypoint i is matched to, null for none and for outliers; lock
+   *  `m` to read the points' mapping state): true makes the next frame a
+   *  keyframe, if mapping accepts one (an object filter asks when a detected
+   *  object the map has too few established points on is in view, or the
+   *  place of an object not seen for long). */
+  virtual bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f, const SE3& T_cw, const CameraIntrinsics& cam,
                              const std::vector<std::shared_ptr<MapPoint>>& matched) {
     (void)m;
     (void)f;
+    (void)T_cw;
+    (void)cam;
     (void)matched;
     return false;
   }

@@ -34,9 +34,9 @@ class FilteringMapManager : public MapManager {
   bool isActive(const MapPoint& p) const override { return inner().isActive(p); }
   void onKeyFrame(const std::shared_ptr<KeyFrame>& kf) override { inner().onKeyFrame(kf); }
   void onTrackingLost(const std::shared_ptr<Map>& m) override { inner().onTrackingLost(m); }
-  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f,
+  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f, const SE3& T_cw, const CameraIntrinsics& cam,
                      const std::vector<std::shared_ptr<MapPoint>>& matched) override {
-    return inner().wantsKeyFrame(m, f, matched);
+    return inner().wantsKeyFrame(m, f, T_cw, cam, matched);
   }
   void save(const std::string& path) const override { inner().save(path); }
   void load(const std::string& path) override { inner().load(path); }

@@ -49,6 +49,7 @@ struct PersistenceStats {
   int64_t dormant = 0;      ///< objects made dormant (not confirmed for long, tracking lost)
   int64_t woken = 0;        ///< dormant objects confirmed again
   int64_t keyframe_requests = 0;  ///< keyframes asked for unmapped objects in view
+  int64_t place_requests = 0;     ///< keyframes asked for places of objects not seen for long
   int64_t merged = 0;             ///< objects merged into another (partial views of one object)
   int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
@@ -71,8 +72,15 @@ class ObjectPersistenceFilter : public FilteringMapManager {
    *  established map points (seen by 3 keyframes; fewer are culled by
    *  local mapping): the next frame becomes a keyframe (at most one request
    *  per `new_object_keyframe_gap` seconds), so that objects seen while
-   *  tracking needs no keyframe get mapped. */
-  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f, const std::vector<MapPointPtr>& matched) override;
+   *  tracking needs no keyframe get mapped.
+   *  Also the whole place of an active or dormant object not seen for
+   *  `long_term_s` in view (its 3D box inside the image, nearer than
+   *  `max_range`): the next frame becomes a keyframe (at most once per
+   *  `place_check_gap` seconds per object), so that its place is judged
+   *  (negative evidence or a sighting), also where tracking needs no
+   *  keyframe: a slow revisit, a run's last frames. */
+  bool wantsKeyFrame(const std::shared_ptr<Map>& m, const Frame& f, const SE3& T_cw, const CameraIntrinsics& cam,
+                     const std::vector<MapPointPtr>& matched) override;
 
   const PersistenceStats& stats() const { return stats_; }
   const LtdaParams& ltdaParams() const { return ltda_; }
@@ -121,6 +129,8 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int min_expected_points_ = 8, max_descriptor_distance_ = 50;
   int new_object_keypoints_ = 10;
   double new_object_gap_s_ = 1.0, last_request_t_ = -1e300;
+  double place_check_gap_s_ = 2.0;
+  std::unordered_map<int64_t, double> place_checked_t_;  ///< by object id: when its place last asked for a keyframe
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
   int evidence_keyframes_ = 3;
   std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
