@@ -272,6 +272,47 @@ TEST(MapObject, ReidentifiesASmallObjectMoved) {
   EXPECT_FALSE(reidentify(line_seen, line, ReidParams{}).moved);
 }
 
+TEST(MapObject, ReidentifiesAPartWithTooFewMatchesByTheMotionOfAnObjectMovedNearIt) {
+  // A 6-point part of a suitcase whose views before and after the move share
+  // only 4 descriptor matches: too few for a motion of its own (8), enough
+  // to confirm the motion found for the refrigerator next to it.
+  auto part = blob({0.6, 0.1, 2.2}, 6, 0, 0.2, 33);
+  const MapObject old = objectOf(33, part, 7);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d t(-0.6, 0, 0.05);
+  auto moved = movedCopy(part, R, t, 100);
+  for (size_t i = 4; i < moved.size(); i++)  // two of them look different after the move
+    for (auto& b : moved[i]->desc) b = static_cast<uint8_t>(~b);
+  MapObject seen;
+  seen.class_id = 33;
+  for (const auto& q : moved) seen.points[q->id] = q;
+  seen.refresh();
+  ReidParams p;  // min_inliers 8, prior_min_inliers 3
+  EXPECT_FALSE(reidentify(seen, old, p).moved);  // no priors: 6 points, fewer than min_inliers
+  ObjectMotion fridge;  // the neighbour's motion
+  fridge.R = R, fridge.t = t + Eigen::Vector3d(0.01, 0, 0.01);
+  ObjectMotion elsewhere;  // another object's motion, 0.5 m another way
+  elsewhere.t = {0, 0, 0.5};
+  const ObjectMotion m = reidentify(seen, old, reidAppearance(old), p, {elsewhere, fridge});
+  EXPECT_TRUE(m.moved);
+  EXPECT_TRUE(m.from_prior);
+  EXPECT_EQ(m.inliers, 4);
+  EXPECT_NEAR(m.shift, (R * old.centroid + t - old.centroid).norm(), 0.02);
+  // A prior the matches do not confirm, or priors off: not moved.
+  const ObjectMotion e = reidentify(seen, old, reidAppearance(old), p, {elsewhere});
+  EXPECT_EQ(e.matches, 4);
+  EXPECT_FALSE(e.moved);
+  p.prior_min_inliers = 0;
+  EXPECT_FALSE(reidentify(seen, old, reidAppearance(old), p, {fridge}).moved);
+  p.prior_min_inliers = 5;  // more than the 4 matches
+  EXPECT_FALSE(reidentify(seen, old, reidAppearance(old), p, {fridge}).moved);
+  // Another class: never, whatever the priors.
+  p = ReidParams{};
+  MapObject other = seen;
+  other.class_id = 62;
+  EXPECT_FALSE(reidentify(other, old, reidAppearance(old), p, {fridge}).moved);
+}
+
 TEST(MapObject, SmallViewsOfOneObjectAddUpToACandidate) {
   LtdaParams p;  // min_points 5, threshold 0.25 m
   SmallCandidatePool pool;

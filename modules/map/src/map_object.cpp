@@ -349,9 +349,13 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidP
 }
 
 ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidAppearance& old_appearance,
-                        const ReidParams& p) {
+                        const ReidParams& p, const std::vector<ObjectMotion>& priors) {
   ObjectMotion m;
   if (seen.class_id != old.class_id || p.min_inliers < 3) return m;
+  // Fewest matches worth comparing: the object's own motion needs min_inliers;
+  // a prior motion prior_min_inliers (at least 3).
+  const int need = priors.empty() || p.prior_min_inliers <= 0 ? p.min_inliers
+                                                               : std::min(p.min_inliers, std::max(3, p.prior_min_inliers));
   std::vector<const MapPoint*> a;
   for (const auto& [id, q] : seen.points) {
     if (old.points.count(id)) return m;  // shares points: partial views of one object, not a move
@@ -360,7 +364,7 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
   const std::vector<const MapPoint*>& b = old_appearance.points;
   const std::vector<const uint8_t*>& rows = old_appearance.rows;
   const std::vector<size_t>& row_point = old_appearance.row_point;
-  if (static_cast<int>(a.size()) < p.min_inliers || static_cast<int>(b.size()) < p.min_inliers) return m;
+  if (static_cast<int>(a.size()) < need || static_cast<int>(b.size()) < need) return m;
   // Best match of each seen point (distinctive descriptor) among the old
   // points (ratio test against the second best *point*); one seen point per
   // old point (the closest).
@@ -390,7 +394,7 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
       dst.push_back(a[best_for_old[j].second]->pos);
     }
   m.matches = static_cast<int>(src.size());
-  if (m.matches < p.min_inliers) return m;
+  if (m.matches < need) return m;
   const size_t n = src.size();
   auto fit = [&](const std::vector<size_t>& idx, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
     Eigen::Matrix3Xd S(3, idx.size()), D(3, idx.size());
@@ -405,6 +409,28 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
       if ((R * src[k] + t - dst[k]).norm() <= p.inlier_m) in.push_back(k);
     return in;
   };
+  auto shiftOf = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) { return (R * old.centroid + t - old.centroid).norm(); };
+  // Too few matches for a motion of its own: a prior motion they confirm.
+  auto byPrior = [&]() {
+    if (p.prior_min_inliers <= 0) return false;
+    const ObjectMotion* best = nullptr;
+    size_t best_n = 0;
+    for (const ObjectMotion& q : priors) {
+      const size_t c = inliersOf(q.R, q.t).size();
+      if (c > best_n) best_n = c, best = &q;
+    }
+    if (!best || static_cast<int>(best_n) < need || 2 * static_cast<int>(best_n) < m.matches) return false;
+    m.R = best->R, m.t = best->t;
+    m.inliers = static_cast<int>(best_n);
+    m.shift = shiftOf(m.R, m.t);
+    m.from_prior = true;
+    m.moved = m.shift >= p.min_shift_m;
+    return true;
+  };
+  if (m.matches < p.min_inliers) {
+    byPrior();
+    return m;
+  }
   std::mt19937 rng(20161);  // fixed seed: the same map gives the same answer
   std::vector<size_t> best_in;
   for (int it = 0; it < p.iterations; it++) {
@@ -428,11 +454,12 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
   }
   if (static_cast<int>(best_in.size()) < p.min_inliers) {
     m.inliers = static_cast<int>(best_in.size());
+    byPrior();  // no motion of its own: one of the priors, if the matches confirm it
     return m;
   }
   fit(best_in, m.R, m.t);
   m.inliers = static_cast<int>(inliersOf(m.R, m.t).size());
-  m.shift = (m.R * old.centroid + m.t - old.centroid).norm();
+  m.shift = shiftOf(m.R, m.t);
   m.moved = m.inliers >= p.min_inliers && m.shift >= p.min_shift_m;
   return m;
 }

@@ -125,6 +125,7 @@ std::string PersistenceStats::str() const {
          (place_requests > 0 ? ", " + std::to_string(place_requests) + " keyframes requested for places" : "") +
          (merged > 0 ? ", " + std::to_string(merged) + " merged" : "") +
          (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "") +
+         (reidentified_by_prior > 0 ? " (" + std::to_string(reidentified_by_prior) + " by a neighbour's motion)" : "") +
          (accumulated > 0 ? ", " + std::to_string(accumulated) + " candidates from small views added up" : "");
 }
 
@@ -179,6 +180,18 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "points of a same-class object not seen for long, all moved by one rigid motion, is that object moved: "
             "negative evidence (p_twin) for it at its old place; 0 = off",
             0, 100000),
+      P_int("reid_prior_min_inliers", 3,
+            "re-identification by a neighbour's motion: an object with too few matches for a motion of its own is "
+            "moved when this many of its matches (and at least half) agree with the motion of an object found moved "
+            "within reid_prior_radius of it in the last reid_prior_keyframes keyframes (objects moved together, "
+            "parts of one object; ours, 0 = off)",
+            0, 1000),
+      P_int("reid_prior_keyframes", 20, "re-identification: how long a found motion serves as a prior (keyframes)", 0,
+            100000),
+      P_double("reid_prior_radius", 2.0,
+               "re-identification: a found motion is a prior for objects whose centroid is this near to where the moved "
+               "object stood (m)",
+               0, 1000),
       P_double("reid_inlier_distance", 0.08, "re-identification: a match within this of the rigid motion (m)", 1e-3,
                10),
       P_double("dormant_after_s", 5.0,
@@ -266,6 +279,10 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   belief_.p_twin = p.getDouble("p_twin");
   reid_.min_inliers = static_cast<int>(p.getInt("reid_min_inliers"));
   reid_.inlier_m = p.getDouble("reid_inlier_distance");
+  reid_.prior_min_inliers = static_cast<int>(p.getInt("reid_prior_min_inliers"));
+  prior_keyframes_ = static_cast<int>(p.getInt("reid_prior_keyframes"));
+  prior_radius_ = p.getDouble("reid_prior_radius");
+  motions_.clear();
   dormant_after_s_ = p.getDouble("dormant_after_s");
   dormant_on_lost_ = p.getBool("dormant_on_lost");
   max_range_ = p.getDouble("max_range");
@@ -488,7 +505,14 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   std::unordered_set<const MapPoint*> kf_points;
   for (const auto& p : kf->points)
     if (p) kf_points.insert(p.get());
-  for (auto& [id, op] : objects) {
+  // Objects with the most points first: their motions, when they were moved,
+  // are priors for the smaller ones near them (re-identification below).
+  std::vector<std::pair<int64_t, MapObject*>> order;
+  order.reserve(objects.size());
+  for (auto& [id, op] : objects) order.emplace_back(id, op.get());
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return a.second->numPoints() > b.second->numPoints(); });
+  for (auto& [id, op] : order) {
     MapObject& o = *op;
     if (seen.count(id)) continue;
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
@@ -530,10 +554,14 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
       std::optional<ReidAppearance> appearance;  // built once, for the first seen object of its class
+      std::vector<ObjectMotion> priors;           // motions of objects found moved near it, lately
+      for (const PriorMotion& q : motions_)
+        if (q.map == m->id && kf->id - q.kf <= prior_keyframes_ && (q.from - o.centroid).norm() <= prior_radius_)
+          priors.push_back(q.motion);
       for (const MapObject* s : seen_now) {
         if (s->class_id != o.class_id) continue;
         if (!appearance) appearance = reidAppearance(o);
-        const ObjectMotion mv = reidentify(*s, o, *appearance, reid_);
+        const ObjectMotion mv = reidentify(*s, o, *appearance, reid_, priors);
         if (!mv.moved) {
           if (mv.matches > 0)
             DSLAM_LOG(Trace, "objects: keyframe " << kf->id << ": object " << o.id << " not object " << s->id
@@ -543,9 +571,14 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         }
         o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
         stats_.reidentified++;
+        if (mv.from_prior)
+          stats_.reidentified_by_prior++;
+        else
+          motions_.push_back({m->id, kf->id, o.centroid, mv});
         traceObject(*kf, o,
                     ("re-identified as object " + std::to_string(s->id) + ", moved " + std::to_string(mv.shift) +
-                     " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches)")
+                     " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches" +
+                     (mv.from_prior ? ", by the motion of an object moved near it)" : ")"))
                         .c_str());
         moved = true;
         break;
@@ -580,6 +613,10 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   }
   // Objects merged into others, or of another map (kept dormant until seen again).
   for (auto it = pending_.begin(); it != pending_.end();) it = objects.count(it->first) ? std::next(it) : pending_.erase(it);
+  const int64_t kf_id = kf->id;
+  motions_.erase(std::remove_if(motions_.begin(), motions_.end(),
+                                [&](const PriorMotion& q) { return kf_id - q.kf > prior_keyframes_; }),
+                 motions_.end());
 }
 
 void ObjectPersistenceFilter::onTrackingLost(const std::shared_ptr<Map>& m) {

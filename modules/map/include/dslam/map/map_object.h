@@ -170,6 +170,10 @@ struct ReidParams {
   int min_inliers = 8;               ///< fewer: not the same object
   double min_shift_m = 0.25;         ///< a smaller motion is no move (the same place: association's)
   int iterations = 64;               ///< RANSAC hypotheses (3 matches each)
+  /** With prior motions (those of objects found moved nearby): this many
+   *  matches consistent with one of them, and at least half of the
+   *  matches, suffice (0 = priors unused). */
+  int prior_min_inliers = 3;
 };
 
 /** The rigid motion that takes an object's points onto another's. */
@@ -179,7 +183,8 @@ struct ObjectMotion {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
   double shift = 0;  ///< how far the old centroid moves under (R, t)
-  bool moved = false;  ///< min_inliers inliers and shift >= min_shift_m
+  bool moved = false;  ///< min_inliers inliers (or a prior's) and shift >= min_shift_m
+  bool from_prior = false;  ///< (R, t) is a prior motion that the matches confirm
 };
 
 /** What re-identification compares against in an old object: its usable
@@ -202,9 +207,14 @@ ReidAppearance reidAppearance(const MapObject& old);
  *  Umeyama on the inliers), moving `old`'s centroid by at least
  *  min_shift_m. Objects of different classes, or sharing map points, are
  *  never one moved. `old_appearance` is reidAppearance(old); the short form
- *  builds it. */
+ *  builds it.
+ *  `priors`: rigid motions of other objects found moved (objects moved
+ *  together, or parts of one object). When the matches are too few for the
+ *  object's own motion, prior_min_inliers of them consistent with one prior
+ *  (at least half of them) make it moved by that prior: a hypothesis that
+ *  needs no RANSAC needs fewer matches to confirm. */
 ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidAppearance& old_appearance,
-                        const ReidParams& p);
+                        const ReidParams& p, const std::vector<ObjectMotion>& priors = {});
 ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidParams& p);
 
 }  // namespace dslam

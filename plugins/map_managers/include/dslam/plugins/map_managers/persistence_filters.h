@@ -52,6 +52,7 @@ struct PersistenceStats {
   int64_t place_requests = 0;     ///< keyframes asked for places of objects not seen for long
   int64_t merged = 0;             ///< objects merged into another (partial views of one object)
   int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
+  int64_t reidentified_by_prior = 0;  ///< ... of them, confirmed with the motion of an object moved near them
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
   std::string str() const;
 };
@@ -137,6 +138,15 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int small_candidate_keyframes_ = 5;
   int undetected_keyframes_ = 1;
   SmallCandidatePool small_;  ///< candidates too small for an object, adding up
+  /** A motion found by re-identification: a prior for objects near `from`. */
+  struct PriorMotion {
+    int64_t map = -1, kf = -1;
+    Eigen::Vector3d from = Eigen::Vector3d::Zero();  ///< where the moved object stood
+    ObjectMotion motion;
+  };
+  std::vector<PriorMotion> motions_;
+  int prior_keyframes_ = 20;
+  double prior_radius_ = 2.0;
   PersistenceStats stats_;
 };
 
