@@ -600,6 +600,37 @@ TEST(EkfObjectTracker, ObjectIdsAreNeverReused) {
   EXPECT_EQ(ekf->tracks()[0].id, table);  // the track carries the id its keypoints got
 }
 
+TEST(EkfObjectTracker, AKeypointInTwoBoxesTakesTheIdOfTheBoxOfItsClass) {
+  // A chair in front of a table: the chair's keypoint lies in both boxes and
+  // carries the chair's class (set by the classifier before, e.g. depth
+  // repopulation). Its object id is the chair track's, whatever the box
+  // order; the table's keypoint (no class before) gets the table's.
+  for (bool chair_first : {true, false}) {
+    Scene s;
+    const Obj chair{62, {0.3, 0.2, 3.0}, {0, 0, 0}, 0.5, 0.8}, table{67, {0.7, 0.2, 3.0}, {0, 0, 0}, 1.0, 0.6};
+    s.objs = chair_first ? std::vector<Obj>{chair, table} : std::vector<Obj>{table, chair};
+    const size_t kc = chair_first ? 1 : 2, kt = chair_first ? 2 : 1;  // keypoint 0: background
+    auto ekf = makeClassifier<EkfObjectTracker>("EkfObjectTracker", "", &s.cam);
+    Frame f;
+    for (int k = 0; k < 10; k++) {
+      Detections d;
+      ClassifierContext ctx = s.frame(k, f, d);
+      f.meta.assign(f.size(), KeypointMeta{});
+      f.meta[kc].class_id = 62;
+      ekf->classify(f, d, ctx);
+      ekf->afterTracking(f, d, s.pose(k));
+    }
+    ASSERT_EQ(ekf->tracks().size(), 2u);
+    int chair_track = -1, table_track = -1;
+    for (const auto& t : ekf->tracks()) (t.class_id == 62 ? chair_track : table_track) = t.id;
+    EXPECT_EQ(f.meta[kc].class_id, 62) << chair_first;
+    EXPECT_EQ(f.meta[kc].object_id, chair_track) << chair_first;
+    EXPECT_EQ(f.meta[kt].class_id, 67) << chair_first;
+    EXPECT_EQ(f.meta[kt].object_id, table_track) << chair_first;
+    EXPECT_NE(chair_track, table_track);
+  }
+}
+
 TEST(EkfObjectTracker, BoxCutByTheImageBorderIsNoEvidenceOfMotion) {
   // A static 1.6 m table whose right part is outside the image: the detector's
   // box is cut at the border, and as the camera moves the cut box's centre

@@ -258,8 +258,12 @@ void EkfObjectTracker::classify(Frame& frame, const Detections& det, const Class
         cls::raise(m, KpLabel::Dynamic, reason);
       else if (movable_)
         cls::raise(m, KpLabel::Movable, KpReason::OnObject);
-      m.object_id = id;
       if (m.class_id < 0 && !background) m.class_id = static_cast<int16_t>(bb.class_id);
+      // The id of the box whose class it carries: a keypoint of the suitcase
+      // inside the overlap with the fridge's box is the suitcase's, not the
+      // fridge's (else it makes an object of its own: class suitcase, id of
+      // the fridge). Keypoints of no class take the id of the first box.
+      if (m.class_id == bb.class_id || (m.class_id < 0 && m.object_id < 0)) m.object_id = id;
     }
   }
 }
