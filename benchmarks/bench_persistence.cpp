@@ -4,6 +4,10 @@
 // points each in front of a 2000-point wall, every object in view; and the
 // PointPersistenceFilter on the same keyframes. The cost must grow at most
 // linearly with the number of objects (Complexity: oN).
+// wants_keyframe: ObjectPersistenceFilter::wantsKeyFrame, run by the
+// tracking thread on every frame, with N objects not seen for long and
+// none of their places in view (the camera turned away): every object is
+// projected and none asks, the per-frame worst case of the place check.
 //
 //   bench_persistence --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -91,8 +95,30 @@ void run(benchmark::State& state) {
   state.SetComplexityN(n);
 }
 
+void wants_keyframe(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const World W(n);
+  auto atlas = std::make_shared<Atlas>();
+  ObjectPersistenceFilter filter;
+  filter.configure(Params::resolve(filter.paramSpecs(), "{}"), PluginContext{});
+  filter.setInner(atlas);
+  auto map = filter.currentMap();
+  std::vector<MapPointPtr> pts(W.w.X.size());
+  filter.onKeyFrame(keyframe(W, *map, pts, 0.0));
+  Frame f = W.w.frame(SE3(), 300);  // unlabelled keypoints: no new object to ask for
+  f.input.timestamp = 10.0;         // every object not seen for 10 s
+  const SE3 away(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero());
+  const std::vector<MapPointPtr> matched(f.size());
+  int asked = 0;
+  for (auto _ : state) asked += filter.wantsKeyFrame(map, f, away, W.w.cam, matched);
+  if (asked) state.SkipWithError("a place out of view asked for a keyframe");
+  state.counters["objects"] = static_cast<double>(map->objects().size());
+  state.SetComplexityN(n);
+}
+
 }  // namespace
 
+BENCHMARK(wants_keyframe)->RangeMultiplier(4)->Range(8, 512)->Complexity(benchmark::oN)->Unit(benchmark::kMicrosecond);
 BENCHMARK_TEMPLATE(run, ObjectPersistenceFilter)->RangeMultiplier(4)->Range(8, 512)->Iterations(20)->Complexity(benchmark::oN)->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(run, PointPersistenceFilter)->RangeMultiplier(4)->Range(8, 512)->Iterations(20)->Complexity(benchmark::oN)->Unit(benchmark::kMillisecond);
 
