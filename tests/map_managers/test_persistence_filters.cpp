@@ -525,6 +525,51 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenThePlaceOfAnObjectNotSeenForLo
   EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, poseAt({0.1, 0, 0}), view.cam, matched));
 }
 
+TEST(ObjectPersistenceFilter, KeypointsOfItsClassThatMakeAnotherObjectElsewhereAreNoSupport) {
+  // The chair is gone and the camera sees the wall through its place, 2 m
+  // behind it. A box of the chair's class there (another chair by the wall,
+  // or the moved chair's box) labels those wall keypoints: they make an
+  // object of their own, whose box and the chair's hold neither's centroid.
+  // They do not stand on the chair's place: no support, and the place seen
+  // through is negative evidence. The same labels on keypoints that went to
+  // the chair itself (its points, seen again) are a sighting (other tests).
+  // Its points not found are no evidence here (min_found_fraction 0): the
+  // place alone decides.
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{dormant_after_s: 0, min_found_fraction: 0}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const int64_t chair = s.map->objects().begin()->first;
+  const MapObject& o = *s.map->objects().at(chair);
+  auto kf = s.keyframe(3.0, poseAt({0.02, 0, 0}), false);
+  float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;  // the image of the chair's place
+  for (int k = 0; k < 8; k++) {
+    const Eigen::Vector3d X = kf->T_cw() * o.corner(k);
+    const float u = static_cast<float>(kf->cam.fx * X.x() / X.z() + kf->cam.cx);
+    const float v = static_cast<float>(kf->cam.fy * X.y() / X.z() + kf->cam.cy);
+    x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
+  }
+  int labelled = 0;
+  for (size_t i = 0; i < kf->size(); i++) {
+    const cv::Point2f& pt = kf->keys_un[i].pt;
+    if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
+    kf->meta[i].class_id = kChair;
+    kf->meta[i].object_id = 99;
+    labelled++;
+  }
+  ASSERT_GE(labelled, 20);
+  filter->onKeyFrame(kf);
+  ASSERT_EQ(s.map->objects().size(), 2u);  // the labelled wall patch: an object of its own
+  for (const auto& [id, x] : s.map->objects()) {
+    if (id != chair) {
+      EXPECT_GT(x->centroid.z(), 4.5);
+    }
+  }
+  EXPECT_EQ(filter->stats().misses, 1);
+  EXPECT_LT(o.belief, 0.2);  // seen through: 0.5 -> 0.1 (p_see_through 0.1, p_false 0.1)
+  EXPECT_FALSE(o.active);
+}
+
 TEST(ObjectPersistenceFilter, WeakEvidenceAddsUpOverKeyFrames) {
   // The chair is gone (nothing of its class detected on its place is no
   // evidence here: undetected_keyframes 0). Place: its points not found are no evidence

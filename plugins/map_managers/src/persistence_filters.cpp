@@ -380,6 +380,19 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
   return ev;
 }
 
+bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o) const {
+  if (!owners_ || !kf.points[i] || !kf.map) return false;
+  auto it = owners_->find(kf.points[i].get());
+  if (it == owners_->end() || it->second == o.id) return false;
+  auto jt = kf.map->objects().find(it->second);
+  if (jt == kf.map->objects().end()) return false;
+  const MapObject& x = *jt->second;
+  auto inside = [](const Eigen::Vector3d& c, const MapObject& b) {
+    return (c.array() >= b.box_min.array()).all() && (c.array() <= b.box_max.array()).all();
+  };
+  return !inside(o.centroid, x) && !inside(x.centroid, o);  // overlapping: parts of one object
+}
+
 bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const {
   if (o.points.empty()) return true;
   PlaceRect r;
@@ -397,7 +410,7 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
-    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id;
+    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o);
     if ((mp && mp->map_object == o.id) || of_class) support++;
     labelled += of_class;
     if (!(i < kf.depth.size() && kf.depth[i] > 0)) continue;  // no depth: no place evidence
@@ -463,6 +476,18 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       candidates.push_back(std::move(c));
     }
   const auto matches = associateObjects(objects, candidates, kf->id, kf->timestamp, ltda_, Map::objectIdCounter());
+  // The object each candidate point of this keyframe went to: keypoints of an
+  // object's class on its image place that belong to another object, apart
+  // from it, are no support for it (placeEvidence).
+  std::unordered_map<const MapPoint*, int64_t> owner;
+  for (const LtdaMatch& mt : matches)
+    for (const auto& mp : candidates[mt.candidate].points)
+      if (mp) owner[mp.get()] = mt.object;
+  owners_ = &owner;
+  struct Reset {
+    const std::unordered_map<const MapPoint*, int64_t>*& p;
+    ~Reset() { p = nullptr; }
+  } reset{owners_};
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
     auto it = objects.find(mt.object);

@@ -109,6 +109,11 @@ class ObjectPersistenceFilter : public FilteringMapManager {
    *  its class; false if its points or keypoints of its class are on its
    *  place (it is there: no negative evidence), unless `undetected`. */
   bool placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const;
+  /** Whether keypoint i of `kf` went, in this keyframe's association, to an
+   *  object other than `o` whose box and o's hold neither's centroid. */
+  bool ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o) const;
+  /** During onKeyFrame: the object each candidate point was associated with. */
+  const std::unordered_map<const MapPoint*, int64_t>* owners_ = nullptr;
   bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
   /** Below the belief threshold: inactive, and no longer dormant (gone, not
