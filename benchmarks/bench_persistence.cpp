@@ -72,48 +72,53 @@ KeyFramePtr keyframe(const World& W, Map& m, std::vector<MapPointPtr>& pts, doub
   return kf;
 }
 
+/** A filter of type F over an atlas, on the world of N objects, after its
+ *  first keyframe (at t = 0). */
+template <class F>
+struct Setup {
+  const World W;
+  std::shared_ptr<Atlas> atlas = std::make_shared<Atlas>();
+  F filter;
+  std::shared_ptr<Map> map;
+  std::vector<MapPointPtr> pts;
+  explicit Setup(int n) : W(n), pts(W.w.X.size()) {
+    filter.configure(Params::resolve(filter.paramSpecs(), "{}"), PluginContext{});
+    filter.setInner(atlas);
+    map = filter.currentMap();
+    filter.onKeyFrame(keyframe(W, *map, pts, 0.0));
+  }
+  void finish(benchmark::State& state, int n) const {
+    state.counters["objects"] = static_cast<double>(map->objects().size());
+    state.SetComplexityN(n);
+  }
+};
+
 template <class F>
 void run(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const World W(n);
-  auto atlas = std::make_shared<Atlas>();
-  F filter;
-  filter.configure(Params::resolve(filter.paramSpecs(), "{}"), PluginContext{});
-  filter.setInner(atlas);
-  auto map = filter.currentMap();
-  std::vector<MapPointPtr> pts(W.w.X.size());
+  Setup<F> s(n);
   double t = 0;
-  filter.onKeyFrame(keyframe(W, *map, pts, t));
   for (auto _ : state) {
     state.PauseTiming();
     t += 3.0;  // long-term: every object is sighted again
-    auto kf = keyframe(W, *map, pts, t);
+    auto kf = keyframe(s.W, *s.map, s.pts, t);
     state.ResumeTiming();
-    filter.onKeyFrame(kf);
+    s.filter.onKeyFrame(kf);
   }
-  state.counters["objects"] = static_cast<double>(map->objects().size());
-  state.SetComplexityN(n);
+  s.finish(state, n);
 }
 
 void wants_keyframe(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const World W(n);
-  auto atlas = std::make_shared<Atlas>();
-  ObjectPersistenceFilter filter;
-  filter.configure(Params::resolve(filter.paramSpecs(), "{}"), PluginContext{});
-  filter.setInner(atlas);
-  auto map = filter.currentMap();
-  std::vector<MapPointPtr> pts(W.w.X.size());
-  filter.onKeyFrame(keyframe(W, *map, pts, 0.0));
-  Frame f = W.w.frame(SE3(), 300);  // unlabelled keypoints: no new object to ask for
-  f.input.timestamp = 10.0;         // every object not seen for 10 s
+  Setup<ObjectPersistenceFilter> s(n);
+  Frame f = s.W.w.frame(SE3(), 300);  // unlabelled keypoints: no new object to ask for
+  f.input.timestamp = 10.0;           // every object not seen for 10 s
   const SE3 away(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero());
   const std::vector<MapPointPtr> matched(f.size());
   int asked = 0;
-  for (auto _ : state) asked += filter.wantsKeyFrame(map, f, away, W.w.cam, matched);
+  for (auto _ : state) asked += s.filter.wantsKeyFrame(s.map, f, away, s.W.w.cam, matched);
   if (asked) state.SkipWithError("a place out of view asked for a keyframe");
-  state.counters["objects"] = static_cast<double>(map->objects().size());
-  state.SetComplexityN(n);
+  s.finish(state, n);
 }
 
 }  // namespace
