@@ -296,9 +296,6 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
 
 size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
                                size_t min_points) {
-  auto inside = [](const Eigen::Vector3d& x, const MapObject& o) {
-    return (x.array() >= o.box_min.array()).all() && (x.array() <= o.box_max.array()).all();
-  };
   size_t merges = 0;
   for (auto a = objects.begin(); a != objects.end(); ++a) {
     MapObject& A = *a->second;
@@ -306,7 +303,7 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
     for (auto b = std::next(a); b != objects.end();) {
       MapObject& B = *b->second;
       if (B.class_id != A.class_id || B.numPoints() < min_points || !eligible(B) ||
-          !(inside(B.centroid, A) || inside(A.centroid, B))) {
+          !(A.contains(B.centroid) || B.contains(A.centroid))) {
         ++b;
         continue;
       }
@@ -412,20 +409,19 @@ ObjectMotion reidentify(const MapObject& seen, const MapObject& old, const ReidA
   auto shiftOf = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) { return (R * old.centroid + t - old.centroid).norm(); };
   // Too few matches for a motion of its own: a prior motion they confirm.
   auto byPrior = [&]() {
-    if (p.prior_min_inliers <= 0) return false;
+    if (p.prior_min_inliers <= 0) return;
     const ObjectMotion* best = nullptr;
     size_t best_n = 0;
     for (const ObjectMotion& q : priors) {
       const size_t c = inliersOf(q.R, q.t).size();
       if (c > best_n) best_n = c, best = &q;
     }
-    if (!best || static_cast<int>(best_n) < need || 2 * static_cast<int>(best_n) < m.matches) return false;
+    if (!best || static_cast<int>(best_n) < need || 2 * static_cast<int>(best_n) < m.matches) return;
     m.R = best->R, m.t = best->t;
     m.inliers = static_cast<int>(best_n);
     m.shift = shiftOf(m.R, m.t);
     m.from_prior = true;
     m.moved = m.shift >= p.min_shift_m;
-    return true;
   };
   if (m.matches < p.min_inliers) {
     byPrior();

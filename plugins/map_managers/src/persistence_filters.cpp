@@ -21,15 +21,19 @@ namespace dslam {
 
 namespace {
 
-/** Pixel of world point `Xw` in keyframe `kf` and its depth; false when it
- *  is behind the camera, nearer than 0.1 m or outside the image. */
-bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv, double& z) {
-  const Eigen::Vector3d Xc = kf.T_cw() * Xw;
+/** Pixel of world point `Xw` seen from pose T_cw with camera `cam`, and its
+ *  depth; false when it is behind the camera, nearer than 0.1 m or outside
+ *  the image. */
+bool projectInto(const SE3& T_cw, const CameraIntrinsics& cam, const Eigen::Vector3d& Xw, cv::Point2f& uv, double& z) {
+  const Eigen::Vector3d Xc = T_cw * Xw;
   z = Xc.z();
   if (z < 0.1) return false;
-  uv.x = static_cast<float>(kf.cam.fx * Xc.x() / z + kf.cam.cx);
-  uv.y = static_cast<float>(kf.cam.fy * Xc.y() / z + kf.cam.cy);
-  return kf.cam.bounds.contains(uv.x, uv.y);
+  uv.x = static_cast<float>(cam.fx * Xc.x() / z + cam.cx);
+  uv.y = static_cast<float>(cam.fy * Xc.y() / z + cam.cy);
+  return cam.bounds.contains(uv.x, uv.y);
+}
+bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv, double& z) {
+  return projectInto(kf.T_cw(), kf.cam, Xw, uv, z);
 }
 
 /** Image rectangle of an object's 3D box seen from pose T_cw, and the
@@ -43,11 +47,8 @@ struct PlaceRect {
  *  in front and inside the image (at the image border a present object is
  *  easily missed: few of its keypoints, a cut box). */
 bool placeInView(const SE3& T_cw, const CameraIntrinsics& cam, const MapObject& o, double max_range, PlaceRect& r) {
-  const Eigen::Vector3d C = T_cw * o.centroid;
-  r.z = C.z();
-  if (r.z < 0.1 || r.z > max_range ||
-      !cam.bounds.contains(static_cast<float>(cam.fx * C.x() / r.z + cam.cx), static_cast<float>(cam.fy * C.y() / r.z + cam.cy)))
-    return false;
+  cv::Point2f c;
+  if (!projectInto(T_cw, cam, o.centroid, c, r.z) || r.z > max_range) return false;
   r.x0 = r.y0 = 1e9f, r.x1 = r.y1 = -1e9f;
   for (int k = 0; k < 8; k++) {
     const Eigen::Vector3d Xc = T_cw * o.corner(k);
@@ -380,20 +381,18 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
   return ev;
 }
 
-bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o) const {
-  if (!owners_ || !kf.points[i] || !kf.map) return false;
-  auto it = owners_->find(kf.points[i].get());
-  if (it == owners_->end() || it->second == o.id) return false;
+bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o, const PointOwners& owners) {
+  if (!kf.points[i] || !kf.map) return false;
+  auto it = owners.find(kf.points[i].get());
+  if (it == owners.end() || it->second == o.id) return false;
   auto jt = kf.map->objects().find(it->second);
   if (jt == kf.map->objects().end()) return false;
   const MapObject& x = *jt->second;
-  auto inside = [](const Eigen::Vector3d& c, const MapObject& b) {
-    return (c.array() >= b.box_min.array()).all() && (c.array() <= b.box_max.array()).all();
-  };
-  return !inside(o.centroid, x) && !inside(x.centroid, o);  // overlapping: parts of one object
+  return !x.contains(o.centroid) && !o.contains(x.centroid);  // overlapping: parts of one object
 }
 
-bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const {
+bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners,
+                                            Evidence& ev) const {
   if (o.points.empty()) return true;
   PlaceRect r;
   if (!placeInView(kf.T_cw(), kf.cam, o, max_range_, r)) return true;
@@ -410,7 +409,7 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
-    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o);
+    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o, owners);
     if ((mp && mp->map_object == o.id) || of_class) support++;
     labelled += of_class;
     if (!(i < kf.depth.size() && kf.depth[i] > 0)) continue;  // no depth: no place evidence
@@ -479,15 +478,10 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   // The object each candidate point of this keyframe went to: keypoints of an
   // object's class on its image place that belong to another object, apart
   // from it, are no support for it (placeEvidence).
-  std::unordered_map<const MapPoint*, int64_t> owner;
+  PointOwners owners;
   for (const LtdaMatch& mt : matches)
     for (const auto& mp : candidates[mt.candidate].points)
-      if (mp) owner[mp.get()] = mt.object;
-  owners_ = &owner;
-  struct Reset {
-    const std::unordered_map<const MapPoint*, int64_t>*& p;
-    ~Reset() { p = nullptr; }
-  } reset{owners_};
+      if (mp) owners[mp.get()] = mt.object;
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
     auto it = objects.find(mt.object);
@@ -543,7 +537,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
-    const bool place_taken = !placeEvidence(*kf, o, now);
+    const bool place_taken = !placeEvidence(*kf, o, owners, now);
     const bool undetected = now.undetected > 0;
     Evidence ev;  // what earlier keyframes gathered without a decision, and this one
     if (auto it = pending_.find(id); it != pending_.end()) {
@@ -579,13 +573,15 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
       std::optional<ReidAppearance> appearance;  // built once, for the first seen object of its class
-      std::vector<ObjectMotion> priors;           // motions of objects found moved near it, lately
-      for (const PriorMotion& q : motions_)
-        if (q.map == m->id && kf->id - q.kf <= prior_keyframes_ && (q.from - o.centroid).norm() <= prior_radius_)
-          priors.push_back(q.motion);
+      std::vector<ObjectMotion> priors;           // ... and the motions of objects found moved near it, lately
       for (const MapObject* s : seen_now) {
         if (s->class_id != o.class_id) continue;
-        if (!appearance) appearance = reidAppearance(o);
+        if (!appearance) {
+          appearance = reidAppearance(o);
+          for (const PriorMotion& q : motions_)
+            if (q.map == m->id && kf->id - q.kf <= prior_keyframes_ && (q.from - o.centroid).norm() <= prior_radius_)
+              priors.push_back(q.motion);
+        }
         const ObjectMotion mv = reidentify(*s, o, *appearance, reid_, priors);
         if (!mv.moved) {
           if (mv.matches > 0)

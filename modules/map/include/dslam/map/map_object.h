@@ -56,6 +56,10 @@ struct MapObject {
   Eigen::Vector3d corner(int k) const {
     return {k & 1 ? box_max.x() : box_min.x(), k & 2 ? box_max.y() : box_min.y(), k & 4 ? box_max.z() : box_min.z()};
   }
+  /** Whether `x` lies in the 3D box (faces included). */
+  bool contains(const Eigen::Vector3d& x) const {
+    return (x.array() >= box_min.array()).all() && (x.array() <= box_max.array()).all();
+  }
   /** Sets `active` on the object and on every one of its points. */
   void setActive(bool a);
   /** Makes `mp` one of its points: the point records the object and takes

@@ -104,16 +104,19 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   };
   Evidence pointEvidence(const KeyFrame& kf, const MapObject& o,
                          const std::unordered_set<const MapPoint*>& kf_points) const;
+  /** The object each candidate point of a keyframe was associated with. */
+  using PointOwners = std::unordered_map<const MapPoint*, int64_t>;
   /** Adds the place evidence of `kf` to `ev`, with `undetected` set when
    *  its whole place is in view, not hidden, and no keypoint on it carries
-   *  its class; false if its points or keypoints of its class are on its
-   *  place (it is there: no negative evidence), unless `undetected`. */
-  bool placeEvidence(const KeyFrame& kf, const MapObject& o, Evidence& ev) const;
-  /** Whether keypoint i of `kf` went, in this keyframe's association, to an
-   *  object other than `o` whose box and o's hold neither's centroid. */
-  bool ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o) const;
-  /** During onKeyFrame: the object each candidate point was associated with. */
-  const std::unordered_map<const MapPoint*, int64_t>* owners_ = nullptr;
+   *  its class (keypoints that went to another object apart from it, in
+   *  `owners`, do not count); false if its points or keypoints of its class
+   *  are on its place (it is there: no negative evidence), unless
+   *  `undetected`. */
+  bool placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners, Evidence& ev) const;
+  /** Whether keypoint i of `kf` went, in this keyframe's association
+   *  (`owners`), to an object other than `o` whose box and o's hold
+   *  neither's centroid. */
+  static bool ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o, const PointOwners& owners);
   bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
   /** Below the belief threshold: inactive, and no longer dormant (gone, not
