@@ -347,3 +347,47 @@ TEST(MapObject, SmallViewsOfOneObjectAddUpToACandidate) {
   EXPECT_LT(pool.size(), before);
   EXPECT_EQ(pool.size(), 1u);  // map 1's tv
 }
+
+// A map point is in one object. When the detector misses an object for a
+// frame, the box behind it takes its keypoints (a plant in front of a desk
+// becomes "desk" in that view) and an object of the wrong class gets its
+// points; when a later candidate of the right class takes them, they leave
+// the wrong object: its centroid and box no longer hold them, and
+// deactivating it (the desk judged gone) leaves the plant's points active.
+TEST(MapObject, APointTakenByAnotherObjectLeavesTheOneItWasIn) {
+  constexpr int kPlant = 64, kDesk = 67;
+  LtdaParams p;
+  std::map<int64_t, MapObjectPtr> objects;
+  int64_t next_id = 0;
+  auto desk = blob({0, 0, 4}, 10, 0, 0.3, kDesk);
+  auto plant = blob({0, 0, 3}, 12, 100, 0.2, kPlant);
+  // Keyframe 1: the plant's box missed: 4 plant points labelled desk.
+  std::vector<MapPointPtr> wrong = desk;
+  wrong.insert(wrong.end(), plant.begin(), plant.begin() + 4);
+  auto m1 = associateObjects(objects, {candidate(kDesk, wrong)}, 1, 1.0, p, next_id);
+  ASSERT_EQ(m1.size(), 1u);
+  MapObject& d = *objects.at(m1[0].object);
+  EXPECT_EQ(d.numPoints(), 14u);
+  EXPECT_LT(d.box_min.z(), 3.2);  // stretched to the plant
+  // Keyframe 2: the plant's box is back; its candidate takes its 4 points.
+  auto m2 = associateObjects(objects, {candidate(kPlant, plant)}, 2, 2.0, p, next_id);
+  ASSERT_EQ(m2.size(), 1u);
+  ASSERT_TRUE(m2[0].created);
+  MapObject& pl = *objects.at(m2[0].object);
+  EXPECT_EQ(pl.numPoints(), 12u);
+  EXPECT_EQ(d.numPoints(), 10u);
+  for (const auto& mp : plant) {
+    EXPECT_EQ(mp->map_object, pl.id);
+    EXPECT_EQ(d.points.count(mp->id), 0u);
+  }
+  EXPECT_GT(d.box_min.z(), 3.8);  // the desk's own points only
+  EXPECT_NEAR(d.centroid.z(), 4.0, 0.1);
+  d.setActive(false);
+  for (const auto& mp : plant) EXPECT_TRUE(mp->active);
+  for (const auto& mp : desk) EXPECT_FALSE(mp->active);
+  // An object listing a point another object holds (an atlas written before
+  // this rule) drops it when refreshed.
+  d.points[plant[0]->id] = plant[0];
+  EXPECT_EQ(d.refresh(), 10u);
+  EXPECT_EQ(plant[0]->map_object, pl.id);
+}

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <set>
 #include <tuple>
 
 #include <Eigen/Geometry>
@@ -15,9 +16,9 @@ namespace dslam {
 
 size_t MapObject::refresh() {
   std::map<int64_t, MapPointPtr> alive;
-  for (const auto& [id, p] : points) {
+  for (const auto& [pid, p] : points) {
     MapPointPtr q = MapPoint::resolve(p);
-    if (q && !q->bad) alive[q->id] = q;
+    if (q && !q->bad && (q->map_object < 0 || q->map_object == id)) alive[q->id] = q;  // not taken by another
   }
   points = std::move(alive);
   std::vector<Eigen::Vector3d> xs;
@@ -269,6 +270,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
     const MapObject& o = *objects.at(id);
     out[c] = {c, id, false, d, o.last_seen_kf, o.last_seen_t};
   }
+  std::set<MapObject*> left;  // objects whose points went to another
   for (size_t c = 0; c < candidates.size(); c++) {
     const ObjectCandidate& cand = candidates[c];
     MapObjectPtr o;
@@ -284,13 +286,19 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
       objects[o->id] = o;
       out[c] = {c, o->id, true, 0.0, -1, 0.0};
     }
-    for (const auto& mp : cand.points) o->addPoint(mp);
+    for (const auto& mp : cand.points) {
+      if (mp->map_object >= 0 && mp->map_object != o->id)  // it leaves the object it was in
+        if (auto it = objects.find(mp->map_object); it != objects.end() && it->second->points.erase(mp->id))
+          left.insert(it->second.get());
+      o->addPoint(mp);
+    }
     o->last_seen_kf = kf_id;
     o->last_seen_t = t;
     o->current_box = cand.box;
     o->sightings++;
     o->refresh();
   }
+  for (MapObject* o : left) o->refresh();
   return out;
 }
 

@@ -48,8 +48,9 @@ struct MapObject {
   double first_seen_t = 0, last_seen_t = 0;
   int sightings = 0;                          ///< keyframes that saw it
 
-  /** Drops bad points (follows fused ones), recomputes centroid and box.
-   *  Returns the number of points left. */
+  /** Drops bad points (follows fused ones) and points another object took
+   *  (a point is in one object), recomputes centroid and box. Returns the
+   *  number of points left. */
   size_t refresh();
   size_t numPoints() const { return points.size(); }
   /** Corner k (0-7) of the 3D box: bit 0 picks max x, bit 1 max y, bit 2 max z. */
@@ -153,7 +154,8 @@ struct LtdaMatch {
  *  before that (ours) into the same-class object it shares at least
  *  `min_shared_points` map points with (most shared first), or
  *  creates a new object (id from `next_id`). Marks every map point with its
- *  object id and class; sets last_seen / sightings / current_box. Returns one
+ *  object id (a point of another object leaves that one: a point is in one
+ *  object); sets last_seen / sightings / current_box. Returns one
  *  entry per candidate, in candidate order. */
 std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects,
                                         const std::vector<ObjectCandidate>& candidates, int64_t kf_id, double t,
