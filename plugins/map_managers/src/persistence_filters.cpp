@@ -80,6 +80,7 @@ struct Around {
   bool any_depth = false;  ///< one of them has depth
   bool occluded = false;   ///< one of them is nearer than the point by more than the margin
   bool match = false;      ///< one of them is the point (see Match)
+  bool own_class = false;  ///< one of them carries `own_class` at the point's depth (within the margin)
 };
 constexpr int kNoClassTest = -2;  ///< lookAround: keypoint labels not used
 enum class Match {
@@ -100,6 +101,9 @@ Around lookAround(const KeyFrame& kf, const MapPoint& p, const cv::Point2f& uv, 
     if (own_class != kNoClassTest && !(d > 0) && i < kf.meta.size() && kf.meta[i].class_id >= 0 &&
         kf.meta[i].class_id != own_class)
       a.occluded = true;
+    if (own_class != kNoClassTest && d > 0 && std::abs(d - z) <= occlusion_margin && i < kf.meta.size() &&
+        kf.meta[i].class_id == own_class)
+      a.own_class = true;
     if (m == Match::None || a.match) continue;
     if (m == Match::DescriptorAndDepth && !(d > 0 && std::abs(d - z) <= occlusion_margin)) continue;
     a.match = descriptorDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)), p.desc.data()) <=
@@ -224,6 +228,11 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "without a detection",
                0, 1),
       P_double("match_radius", 8.0, "point evidence: pixels around a point's projection searched for it", 1, 1000),
+      P_bool("class_at_point", true,
+             "point evidence: a point not found where a keypoint labelled with its object's class lies at its depth "
+             "(within occlusion_margin, match_radius around its projection) is no evidence either way: the object "
+             "is there, seen from a side where this point looks otherwise (a table's edge) (ours; false = every "
+             "point in view not found counts against it)"),
       P_int("evidence_keyframes", 3,
             "point and place evidence too weak in one keyframe (a small object: few points or keypoints on its "
             "place) adds up over this many keyframes that show it (ours; 1 = each keyframe on its own)",
@@ -295,6 +304,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   min_found_fraction_ = p.getDouble("min_found_fraction");
   present_fraction_ = p.getDouble("present_fraction");
   match_radius_px_ = p.getDouble("match_radius");
+  class_at_point_ = p.getBool("class_at_point");
   evidence_keyframes_ = static_cast<int>(p.getInt("evidence_keyframes"));
   max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
   reid_.max_descriptor_distance = max_descriptor_distance_;
@@ -375,6 +385,10 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
     const Around a = lookAround(kf, *p, uv, z, static_cast<float>(match_radius_px_), occlusion_margin_,
                                 max_descriptor_distance_, Match::DescriptorAndDepth, o.class_id);
     if (a.occluded || !a.any_depth) continue;  // hidden, or nothing to tell
+    // Its class detected right there, at its depth, but no keypoint like
+    // it: the object is seen from a side where this point looks otherwise
+    // (a table's edge), no sign that it left.
+    if (class_at_point_ && !a.match && a.own_class) continue;
     ev.expected++;
     ev.found += a.match;
   }

@@ -141,6 +141,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   double place_check_gap_s_ = 2.0;
   std::unordered_map<int64_t, double> place_checked_t_;  ///< by object id: when its place last asked for a keyframe
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
+  bool class_at_point_ = true;  ///< a point not found among keypoints of its class at its depth: no evidence
   int evidence_keyframes_ = 3;
   std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
   int small_candidate_keyframes_ = 5;
