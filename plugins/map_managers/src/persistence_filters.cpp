@@ -21,6 +21,11 @@ namespace dslam {
 
 namespace {
 
+/** Pixel of camera-frame point `Xc` (in front of the camera). */
+cv::Point2f pixelOf(const CameraIntrinsics& cam, const Eigen::Vector3d& Xc) {
+  return {static_cast<float>(cam.fx * Xc.x() / Xc.z() + cam.cx), static_cast<float>(cam.fy * Xc.y() / Xc.z() + cam.cy)};
+}
+
 /** Pixel of world point `Xw` seen from pose T_cw with camera `cam`, and its
  *  depth; false when it is behind the camera, nearer than 0.1 m or outside
  *  the image. */
@@ -28,8 +33,7 @@ bool projectInto(const SE3& T_cw, const CameraIntrinsics& cam, const Eigen::Vect
   const Eigen::Vector3d Xc = T_cw * Xw;
   z = Xc.z();
   if (z < 0.1) return false;
-  uv.x = static_cast<float>(cam.fx * Xc.x() / z + cam.cx);
-  uv.y = static_cast<float>(cam.fy * Xc.y() / z + cam.cy);
+  uv = pixelOf(cam, Xc);
   return cam.bounds.contains(uv.x, uv.y);
 }
 bool projectInto(const KeyFrame& kf, const Eigen::Vector3d& Xw, cv::Point2f& uv, double& z) {
@@ -53,9 +57,8 @@ bool placeInView(const SE3& T_cw, const CameraIntrinsics& cam, const MapObject& 
   for (int k = 0; k < 8; k++) {
     const Eigen::Vector3d Xc = T_cw * o.corner(k);
     if (Xc.z() < 0.05) return false;
-    const float u = static_cast<float>(cam.fx * Xc.x() / Xc.z() + cam.cx);
-    const float v = static_cast<float>(cam.fy * Xc.y() / Xc.z() + cam.cy);
-    r.x0 = std::min(r.x0, u), r.x1 = std::max(r.x1, u), r.y0 = std::min(r.y0, v), r.y1 = std::max(r.y1, v);
+    const cv::Point2f px = pixelOf(cam, Xc);
+    r.x0 = std::min(r.x0, px.x), r.x1 = std::max(r.x1, px.x), r.y0 = std::min(r.y0, px.y), r.y1 = std::max(r.y1, px.y);
   }
   const ImageBounds& b = cam.bounds;
   return r.x0 >= b.min_x && r.y0 >= b.min_y && r.x1 <= b.max_x && r.y1 <= b.max_y && r.x1 > r.x0 && r.y1 > r.y0;
