@@ -4,6 +4,8 @@
 // or see it again.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <utility>
 
@@ -460,6 +462,55 @@ TEST(ObjectPersistenceFilter, NothingOfItsClassOnItsPlaceOutweighsItsPointsFound
   EXPECT_EQ(filter->stats().misses, 0);
   EXPECT_GT(o.belief, 0.5);
   EXPECT_TRUE(o.active);
+}
+
+/** After the chair is seen at t = 0, a keyframe 3 s later finds its points
+ *  (by their descriptors) with nothing detected on its place but the edge of
+ *  another chair detection: its 3 rightmost keypoints and 30 wall keypoints
+ *  to the right of it carry the chair class and one instance id. Returns
+ *  the chair object's activity and misses. */
+std::pair<bool, int> chairBesideAnotherChair(const std::string& params) {
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{dormant_after_s: 0" + params + "}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObjectPtr o = s.map->objects().begin()->second;
+  KeyFramePtr kf = s.keyframe(3.0, poseAt({0.03, 0, 0}), true, false, false);
+  std::vector<size_t> chair;  // the chair's keypoints: no map point (not tracked), 3 m away
+  for (size_t k = 0; k < kf->size(); k++)
+    if (!kf->points[k] && kf->depth[k] > 0 && kf->depth[k] < 4) chair.push_back(k);
+  EXPECT_GE(chair.size(), 20u);
+  std::sort(chair.begin(), chair.end(), [&](size_t a, size_t b) { return kf->keys_un[a].pt.x > kf->keys_un[b].pt.x; });
+  const float right = kf->keys_un[chair.front()].pt.x, left = kf->keys_un[chair.back()].pt.x;
+  const float edge = kf->keys_un[chair[2]].pt.x;
+  EXPECT_LT(right - edge, 0.15f * (right - left));  // the other detection reaches into a narrow strip of its place
+  const float top = kf->keys_un[chair.front()].pt.y;
+  for (size_t j = 0; j < 3; j++) kf->meta[chair[j]] = {KpLabel::Movable, KpReason::None, kChair, 7};
+  int wall = 0;
+  for (size_t k = 0; k < kf->size() && wall < 30; k++) {
+    const cv::Point2f& u = kf->keys_un[k].pt;
+    if (kf->points[k] && u.x > right + 10 && u.x < right + 120 && std::abs(u.y - top) < 60) {
+      kf->meta[k] = {KpLabel::Movable, KpReason::None, kChair, 7};
+      wall++;
+    }
+  }
+  EXPECT_EQ(wall, 30);
+  filter->onKeyFrame(kf);
+  return {o->active, filter->stats().misses};
+}
+
+TEST(ObjectPersistenceFilter, AnotherDetectionReachingIntoItsPlaceIsNotItsClassOnIt) {
+  // Three keypoints of its class on its place, but their detection spans
+  // a narrow strip of it and lies beside it: another chair, not this one.
+  // Its points found are no sighting (NothingOfItsClassOnItsPlace...):
+  // negative evidence. With place_overlap 0 any keypoint of its class on
+  // its place counts: no evidence against it.
+  const auto [active, misses] = chairBesideAnotherChair("");
+  EXPECT_FALSE(active);
+  EXPECT_EQ(misses, 1);
+  const auto [off_active, off_misses] = chairBesideAnotherChair(", place_overlap: 0");
+  EXPECT_TRUE(off_active);
+  EXPECT_EQ(off_misses, 0);
 }
 
 TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablishedPoints) {

@@ -236,6 +236,13 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
              "(within occlusion_margin, match_radius around its projection) is no evidence either way: the object "
              "is there, seen from a side where this point looks otherwise (a table's edge) (ours; false = every "
              "point in view not found counts against it)"),
+      P_double("place_overlap", 0.25,
+               "place evidence: a keypoint labelled with an object's class on its place supports it (and makes its "
+               "class detected there) only if the keypoints of that detection (class and instance) span at least this "
+               "fraction of the place's image rectangle: another object of its class whose edge reaches into the "
+               "place (the same corner found on several pyramid levels) is not the object there (ours; 0 = any "
+               "keypoint of its class on its place counts)",
+               0, 1),
       P_int("evidence_keyframes", 3,
             "point and place evidence too weak in one keyframe (a small object: few points or keypoints on its "
             "place) adds up over this many keyframes that show it (ours; 1 = each keyframe on its own)",
@@ -308,6 +315,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   present_fraction_ = p.getDouble("present_fraction");
   match_radius_px_ = p.getDouble("match_radius");
   class_at_point_ = p.getBool("class_at_point");
+  place_overlap_ = p.getDouble("place_overlap");
   evidence_keyframes_ = static_cast<int>(p.getInt("evidence_keyframes"));
   max_descriptor_distance_ = static_cast<int>(p.getInt("max_descriptor_distance"));
   reid_.max_descriptor_distance = max_descriptor_distance_;
@@ -408,8 +416,24 @@ bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, cons
   return !x.contains(o.centroid) && !o.contains(x.centroid);  // overlapping: parts of one object
 }
 
+ObjectPersistenceFilter::DetectionExtents ObjectPersistenceFilter::detectionExtents(const KeyFrame& kf) {
+  DetectionExtents ex;
+  for (size_t i = 0; i < kf.meta.size() && i < kf.keys_un.size(); i++) {
+    const KeypointMeta& m = kf.meta[i];
+    if (m.class_id < 0) continue;
+    const cv::Point2f& u = kf.keys_un[i].pt;
+    auto [it, fresh] = ex.try_emplace({m.class_id, m.object_id}, u.x, u.y, 0.f, 0.f);
+    if (fresh) continue;
+    cv::Rect2f& r = it->second;
+    const float x0 = std::min(r.x, u.x), y0 = std::min(r.y, u.y);
+    const float x1 = std::max(r.x + r.width, u.x), y1 = std::max(r.y + r.height, u.y);
+    r = cv::Rect2f(x0, y0, x1 - x0, y1 - y0);
+  }
+  return ex;
+}
+
 bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners,
-                                            Evidence& ev) const {
+                                            const DetectionExtents& extents, Evidence& ev) const {
   if (o.points.empty()) return true;
   PlaceRect r;
   if (!placeInView(kf.T_cw(), kf.cam, o, max_range_, r)) return true;
@@ -419,6 +443,18 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
   // beyond the centroid by occlusion_margin), not onto something there.
   const float cx0 = x0 + 0.25f * (x1 - x0), cx1 = x1 - 0.25f * (x1 - x0);
   const float cy0 = y0 + 0.25f * (y1 - y0), cy1 = y1 - 0.25f * (y1 - y0);
+  // Whether the detection keypoint i belongs to spans enough of the place.
+  const cv::Rect2f place(x0, y0, x1 - x0, y1 - y0);
+  std::map<int32_t, bool> spans;  // by instance
+  auto onPlace = [&](const KeypointMeta& m) {
+    if (place_overlap_ <= 0) return true;
+    auto [it, fresh] = spans.try_emplace(m.object_id, false);
+    if (fresh) {
+      auto e = extents.find({m.class_id, m.object_id});
+      it->second = e != extents.end() && (e->second & place).area() >= place_overlap_ * place.area();
+    }
+    return it->second;
+  };
   int support = 0;
   int labelled = 0, rect_depth = 0, rect_front = 0;
   Evidence here;
@@ -426,7 +462,8 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
-    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o, owners);
+    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o, owners) &&
+                          onPlace(kf.meta[i]);
     if ((mp && mp->map_object == o.id) || of_class) support++;
     labelled += of_class;
     if (!(i < kf.depth.size() && kf.depth[i] > 0)) continue;  // no depth: no place evidence
@@ -499,6 +536,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   for (const LtdaMatch& mt : matches)
     for (const auto& mp : candidates[mt.candidate].points)
       if (mp) owners[mp.get()] = mt.object;
+  const DetectionExtents extents = detectionExtents(*kf);
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
     auto it = objects.find(mt.object);
@@ -554,7 +592,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
-    const bool place_taken = !placeEvidence(*kf, o, owners, now);
+    const bool place_taken = !placeEvidence(*kf, o, owners, extents, now);
     const bool undetected = now.undetected > 0;
     Evidence ev;  // what earlier keyframes gathered without a decision, and this one
     if (auto it = pending_.find(id); it != pending_.end()) {

@@ -106,13 +106,20 @@ class ObjectPersistenceFilter : public FilteringMapManager {
                          const std::unordered_set<const MapPoint*>& kf_points) const;
   /** The object each candidate point of a keyframe was associated with. */
   using PointOwners = std::unordered_map<const MapPoint*, int64_t>;
+  /** By (class, instance) of a keyframe's keypoint labels: the image
+   *  rectangle their keypoints span (a detection's extent as its keypoints
+   *  show it). */
+  using DetectionExtents = std::map<std::pair<int, int32_t>, cv::Rect2f>;
+  static DetectionExtents detectionExtents(const KeyFrame& kf);
   /** Adds the place evidence of `kf` to `ev`, with `undetected` set when
    *  its whole place is in view, not hidden, and no keypoint on it carries
    *  its class (keypoints that went to another object apart from it, in
-   *  `owners`, do not count); false if its points or keypoints of its class
-   *  are on its place (it is there: no negative evidence), unless
-   *  `undetected`. */
-  bool placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners, Evidence& ev) const;
+   *  `owners`, and keypoints of detections spanning less than
+   *  `place_overlap` of the place, in `extents`, do not count); false if
+   *  its points or keypoints of its class are on its place (it is there: no
+   *  negative evidence), unless `undetected`. */
+  bool placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners, const DetectionExtents& extents,
+                     Evidence& ev) const;
   /** Whether keypoint i of `kf` went, in this keyframe's association
    *  (`owners`), to an object other than `o` whose box and o's hold
    *  neither's centroid. */
@@ -142,6 +149,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   std::unordered_map<int64_t, double> place_checked_t_;  ///< by object id: when its place last asked for a keyframe
   double match_radius_px_ = 8.0, min_found_fraction_ = 0.15, present_fraction_ = 0.5;
   bool class_at_point_ = true;  ///< a point not found among keypoints of its class at its depth: no evidence
+  double place_overlap_ = 0.25;  ///< a detection supports a place only if its keypoints span this much of it
   int evidence_keyframes_ = 3;
   std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
   int small_candidate_keyframes_ = 5;
