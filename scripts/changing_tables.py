@@ -2,6 +2,12 @@
 """Tables of docs/results.md section 7 from a run of config/studies/changing.yaml.
 
   changing_tables.py STUDY_OUT [--dslam build/bin/dslam] [--variants changing_slam,...]
+                    [--min-points N] [--objects-only]
+
+--min-points N scores only the estimated objects of at least N map points
+(`dslam eval objects --min-points`; from runs with
+outputs.objects_min_points: 1, config/studies/changing_min_points.yaml);
+--objects-only prints the semantic map's table and totals only.
 
 Datasets named after a changing scene with a seed suffix (`shift_dark_s8`,
 config/studies/changing_heldout.yaml) are that scene rendered with
@@ -61,9 +67,10 @@ def scene_dir(out, scene):
     return found[-1] if found else None
 
 
-def eval_objects(dslam, run, scene):
+def eval_objects(dslam, run, scene, min_points=0):
     with tempfile.NamedTemporaryFile(suffix=".json") as tf:
-        r = subprocess.run([dslam, "eval", "objects", run, scene, "--json", tf.name], capture_output=True, text=True)
+        r = subprocess.run([dslam, "eval", "objects", run, scene, "--json", tf.name, "--min-points", str(min_points)],
+                           capture_output=True, text=True)
         if r.returncode != 0:
             return None
         return json.load(open(tf.name))
@@ -74,6 +81,8 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--dslam", default="build/bin/dslam")
     ap.add_argument("--variants", default="changing_slam,changing_slam_no_object_keyframes")
+    ap.add_argument("--min-points", type=int, default=0)
+    ap.add_argument("--objects-only", action="store_true")
     a = ap.parse_args()
     variants = a.variants.split(",")
     scenes = study_scenes(a.out)
@@ -82,18 +91,21 @@ def main():
     print("| variant | scene | static objects found | stale (at places seen since) | moved found (max centroid-to-box "
           "error) | removed / replaced inactive | added found | false |")
     print("|---|---|---|---|---|---|---|---|")
+    keys = ("static_found", "static_total", "stale", "stale_place_seen", "moved_found", "moved_total",
+            "gone_inactive", "gone_total", "added_found", "added_total", "false_objects")
     tot = {}
     for v in variants:
-        sf = st = 0
+        t = dict.fromkeys(keys, 0)
         for sc in scenes:
             run, scene = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run"), scene_dir(a.out, sc)
             if not scene or not os.path.exists(run + "/objects.json"):
                 continue
-            m = eval_objects(a.dslam, run, scene)
+            m = eval_objects(a.dslam, run, scene, a.min_points)
             if m is None:
                 print(f"| {v} | {sc} | (eval failed) | | | | | |")
                 continue
-            sf, st = sf + m["static_found"], st + m["static_total"]
+            for k in keys:
+                t[k] += m.get(k) or 0
             dash = lambda f, t: f"{f}/{t}" if t else "-"  # noqa: E731
             moved = dash(m["moved_found"], m["moved_total"])
             if m["moved_total"] and m["moved_found"]:
@@ -104,11 +116,17 @@ def main():
             print(f"| {v} | {sc} | {m['static_found']}/{m['static_total']} | {stale} | {moved} "
                   f"| {dash(m['gone_inactive'], m['gone_total'])} | {dash(m['added_found'], m['added_total'])} "
                   f"| {m['false_objects']} |")
-        tot[v] = (sf, st)
+        tot[v] = t
     print()
-    for v, (f, t) in tot.items():
-        if t:
-            print(f"- {v}: static objects found {f}/{t} = {100.0 * f / t:.0f} %")
+    for v, t in tot.items():
+        if t["static_total"]:
+            print(f"- {v}: static objects found {t['static_found']}/{t['static_total']} = "
+                  f"{100.0 * t['static_found'] / t['static_total']:.0f} %; stale {t['stale']} "
+                  f"({t['stale_place_seen']} at places seen since); moved found {t['moved_found']}/{t['moved_total']}; "
+                  f"removed / replaced inactive {t['gone_inactive']}/{t['gone_total']}; "
+                  f"added found {t['added_found']}/{t['added_total']}; false {t['false_objects']}")
+    if a.objects_only:
+        return
 
     print("\nLoop closures and map merges (every event of every cell; error = position error of the poses from "
           "the event on, the trajectory aligned on its poses before it):\n")

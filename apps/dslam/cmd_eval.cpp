@@ -227,6 +227,11 @@ void setup(CLI::App& sub) {
                   "a ground-truth object counts if the camera saw this many of its pixels (summed over frames)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  obj->add_option("--min-points", obj_o.eo.min_points,
+                  "leave out estimated objects of fewer map points (the trade-off of outputs.objects_min_points "
+                  "from a run with objects_min_points: 1; 0 = every object of the file)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   obj->add_option("--max-dt", obj_o.eo.max_dt, "trajectory association threshold, seconds")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -323,6 +323,34 @@ TEST(EvalObjects, FalseDuplicateOtherMapAndUnevaluatedClasses) {
   EXPECT_TRUE(duplicate);
 }
 
+TEST(EvalObjects, MinPointsLeavesOutObjectsOfFewerPoints) {
+  // A 3-point duplicate of the chair and a 4-point stale suitcase: with
+  // min_points 5 they are as if not in the file, the rest is perfect.
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  m.push_back(estObject(21, 62, centre(kChair, 1.0) + Eigen::Vector3d(0.05, 0, 0), true));
+  m.back()["points"] = 3;
+  m[3]["active"] = true;  // the suitcase's old object is still active ...
+  m[3]["points"] = 4;     // ... with 4 points
+  const std::string run = writeRun(d + "/run", m);
+  const auto all = evaluate(run, scene);
+  EXPECT_EQ(all.false_objects, 1);
+  EXPECT_EQ(all.stale, 1);
+  EXPECT_EQ(all.est_too_few_points, 0u);
+  eval::ObjectEvalOptions o;
+  o.min_points = 5;
+  const auto r = eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"),
+                                       traj::readTum(run + "/trajectory.txt"), o);
+  EXPECT_EQ(r.est_too_few_points, 2u);
+  EXPECT_EQ(r.est.size(), m.size() - 2);
+  EXPECT_EQ(r.false_objects, 0);
+  EXPECT_EQ(r.stale, 0);
+  EXPECT_EQ(r.static_found, 2);
+  EXPECT_EQ(r.moved_found, 1);
+  EXPECT_NE(eval::toText(r).find("2 of fewer than 5 points left out"), std::string::npos);
+}
+
 TEST(EvalObjects, AlignmentUndoesAKnownOffset) {
   const std::string d = tempDir("evalobj");
   const std::string scene = writeScene(d + "/scene");

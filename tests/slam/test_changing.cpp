@@ -54,6 +54,7 @@ TEST(ChangingScenes, VanishingTracksAndSwitchesOffRemovedObjects) {
   const eval::ObjectEvalResult r = evaluate(out, scene);
   std::cout << eval::toText(r);
   EXPECT_GE(r.est_evaluated, 3u);
+  for (const auto& e : r.est) EXPECT_GE(e.obj.points, 5) << e.obj.id;  // outputs.objects_min_points
   EXPECT_GE(r.gone_inactive, 2);  // removed while out of view, switched off by negative evidence (measured 3 of 3)
   EXPECT_GE(r.static_found, 4);   // the objects that stay (measured 5 of 5; target 90 %)
   EXPECT_EQ(r.stale, 0);

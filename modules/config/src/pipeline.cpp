@@ -89,6 +89,11 @@ std::vector<ParamSpec> outputParamSpecs() {
                "semantic object map: MapObjects with class, centroid, 3D box, belief, active ('' = none; "
                "docs/changing.md)"),
       P_string("objects_ply", "objects.ply", "3D boxes of the current map's objects as PLY faces ('' = none)"),
+      P_int("objects_min_points", 5,
+            "objects.json and objects.ply leave out objects with fewer map points (local mapping culled the "
+            "rest; fragments); `dslam eval objects --min-points` scores higher values from one run with 1 "
+            "(docs/results.md section 7)",
+            1),
       P_string("resolved_config", "config.resolved.yaml", "fully resolved configuration copy"),
       P_string("events", "events.jsonl", "loop/merge/lost events, one JSON object per line ('' = none)"),
       P_string("atlas", "", "save the atlas to this file at the end ('' = do not save)"),

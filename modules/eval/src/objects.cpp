@@ -512,6 +512,10 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       r.est_other_maps++;
       continue;
     }
+    if (e0.points < opt.min_points) {
+      r.est_too_few_points++;
+      continue;
+    }
     EstObjectResult e;
     e.obj = e0;
     e.obj.centroid = r.alignment.apply(e0.centroid);
@@ -709,6 +713,8 @@ std::string toText(const ObjectEvalResult& r) {
   const auto& opt = r.options;
   o << "objects:   " << r.run_file << " (map " << r.map << ": " << r.est.size() << " objects";
   if (r.est_other_maps) o << "; " << r.est_other_maps << " of other maps not evaluated";
+  if (r.est_too_few_points)
+    o << "; " << r.est_too_few_points << " of fewer than " << opt.min_points << " points left out";
   o << ")\n";
   o << "scene:     " << r.scene_dir << "\n";
   if (r.traj_poses) {
@@ -830,6 +836,8 @@ std::string toJson(const ObjectEvalResult& r) {
              {"ate_rmse", num(r.ate)},
              {"match_radius", num(opt.match_radius)},
              {"min_visible_pixels", opt.min_visible_pixels},
+             {"min_points", opt.min_points},
+             {"estimated_too_few_points", r.est_too_few_points},
              {"estimated", r.est.size()},
              {"estimated_other_maps", r.est_other_maps},
              {"static_total", r.static_total},

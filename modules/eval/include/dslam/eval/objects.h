@@ -139,6 +139,10 @@ struct ObjectEvalOptions {
   double align_until = std::numeric_limits<double>::quiet_NaN();
   double match_radius = 0.5;       ///< metres, centroid-to-box distance
   int64_t min_visible_pixels = 2000;  ///< a ground-truth object (place) counts if seen at least this much
+  /** Estimated objects with fewer map points are left out (as if not in the
+   *  file): the precision/recall trade-off of `outputs.objects_min_points`
+   *  from one run that wrote every object. 0 = every object of the file. */
+  int min_points = 0;
   double max_dt = 0.02;            ///< trajectory association, seconds
   /** The run and the scene do not match if the ATE of the alignment poses
    *  exceeds this (metres) or less than half the trajectory's poses have a
@@ -219,6 +223,7 @@ struct ObjectEvalResult {
   double ate = 0;             ///< ATE RMSE on every associated pose
   // inputs
   size_t est_in_file = 0, est_other_maps = 0, est_evaluated = 0;
+  size_t est_too_few_points = 0;  ///< of the map, left out by min_points
   std::vector<GtObjectResult> gt;
   std::vector<EstObjectResult> est;  ///< the objects of the map
   // headline

@@ -120,8 +120,9 @@ class System {
   /** The semantic object map (MapObjects of every map, issue 12): JSON with
    *  class, centroid, 3D box, belief, active, points, first/last seen, and
    *  the boxes of the current map's objects as PLY faces (green active, red
-   *  inactive). An empty path skips that file. */
-  void writeObjects(const std::string& json_path, const std::string& ply_path) const;
+   *  inactive). Objects with fewer than `min_points` map points (the rest
+   *  culled) are left out. An empty path skips that file. */
+  void writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points = 5) const;
 
   StageTimer& timer() { return timer_; }
   const CameraModel& camera() const { return frontend_->camera(); }
