@@ -406,11 +406,10 @@ ObjectPersistenceFilter::Evidence ObjectPersistenceFilter::pointEvidence(
   return ev;
 }
 
-bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o, const PointOwners& owners) {
-  if (!kf.points[i] || !kf.map) return false;
-  auto it = owners.find(kf.points[i].get());
-  if (it == owners.end() || it->second == o.id) return false;
-  auto jt = kf.map->objects().find(it->second);
+bool ObjectPersistenceFilter::ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o) {
+  const MapPointPtr& mp = kf.points[i];
+  if (!mp || !kf.map || mp->map_object < 0 || mp->map_object == o.id) return false;
+  auto jt = kf.map->objects().find(mp->map_object);
   if (jt == kf.map->objects().end()) return false;
   const MapObject& x = *jt->second;
   return !x.contains(o.centroid) && !o.contains(x.centroid);  // overlapping: parts of one object
@@ -432,8 +431,8 @@ ObjectPersistenceFilter::DetectionExtents ObjectPersistenceFilter::detectionExte
   return ex;
 }
 
-bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners,
-                                            const DetectionExtents& extents, Evidence& ev) const {
+bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject& o, const DetectionExtents& extents,
+                                            Evidence& ev) const {
   if (o.points.empty()) return true;
   PlaceRect r;
   if (!placeInView(kf.T_cw(), kf.cam, o, max_range_, r)) return true;
@@ -462,7 +461,7 @@ bool ObjectPersistenceFilter::placeEvidence(const KeyFrame& kf, const MapObject&
     const cv::Point2f& pt = kf.keys_un[i].pt;
     if (pt.x < x0 || pt.x > x1 || pt.y < y0 || pt.y > y1) continue;
     const MapPointPtr& mp = kf.points[i];
-    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o, owners) &&
+    const bool of_class = !kf.meta.empty() && kf.meta[i].class_id == o.class_id && !ofAnotherObject(kf, i, o) &&
                           onPlace(kf.meta[i]);
     if ((mp && mp->map_object == o.id) || of_class) support++;
     labelled += of_class;
@@ -529,13 +528,6 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       candidates.push_back(std::move(c));
     }
   const auto matches = associateObjects(objects, candidates, kf->id, kf->timestamp, ltda_, Map::objectIdCounter());
-  // The object each candidate point of this keyframe went to: keypoints of an
-  // object's class on its image place that belong to another object, apart
-  // from it, are no support for it (placeEvidence).
-  PointOwners owners;
-  for (const LtdaMatch& mt : matches)
-    for (const auto& mp : candidates[mt.candidate].points)
-      if (mp) owners[mp.get()] = mt.object;
   const DetectionExtents extents = detectionExtents(*kf);
   std::set<int64_t> seen;
   for (const LtdaMatch& mt : matches) {
@@ -592,7 +584,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
-    const bool place_taken = !placeEvidence(*kf, o, owners, extents, now);
+    const bool place_taken = !placeEvidence(*kf, o, extents, now);
     const bool undetected = now.undetected > 0;
     Evidence ev;  // what earlier keyframes gathered without a decision, and this one
     if (auto it = pending_.find(id); it != pending_.end()) {

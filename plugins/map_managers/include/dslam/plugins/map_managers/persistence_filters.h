@@ -104,8 +104,6 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   };
   Evidence pointEvidence(const KeyFrame& kf, const MapObject& o,
                          const std::unordered_set<const MapPoint*>& kf_points) const;
-  /** The object each candidate point of a keyframe was associated with. */
-  using PointOwners = std::unordered_map<const MapPoint*, int64_t>;
   /** By (class, instance) of a keyframe's keypoint labels: the image
    *  rectangle their keypoints span (a detection's extent as its keypoints
    *  show it). */
@@ -113,17 +111,16 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   static DetectionExtents detectionExtents(const KeyFrame& kf);
   /** Adds the place evidence of `kf` to `ev`, with `undetected` set when
    *  its whole place is in view, not hidden, and no keypoint on it carries
-   *  its class (keypoints that went to another object apart from it, in
-   *  `owners`, and keypoints of detections spanning less than
+   *  its class (keypoints whose map point is in another object apart from
+   *  it, and keypoints of detections spanning less than
    *  `place_overlap` of the place, in `extents`, do not count); false if
    *  its points or keypoints of its class are on its place (it is there: no
    *  negative evidence), unless `undetected`. */
-  bool placeEvidence(const KeyFrame& kf, const MapObject& o, const PointOwners& owners, const DetectionExtents& extents,
-                     Evidence& ev) const;
-  /** Whether keypoint i of `kf` went, in this keyframe's association
-   *  (`owners`), to an object other than `o` whose box and o's hold
+  bool placeEvidence(const KeyFrame& kf, const MapObject& o, const DetectionExtents& extents, Evidence& ev) const;
+  /** Whether the map point of keypoint i of `kf` is in an object other
+   *  than `o` (a map point is in one object) whose box and o's hold
    *  neither's centroid. */
-  static bool ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o, const PointOwners& owners);
+  static bool ofAnotherObject(const KeyFrame& kf, size_t i, const MapObject& o);
   bool placeFree(const Evidence& ev) const;
   void setDormant(MapObject& o);
   /** Below the belief threshold: inactive, and no longer dormant (gone, not
