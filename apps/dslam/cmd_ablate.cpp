@@ -110,7 +110,7 @@ void run(const Opts& o) {
   }
   const study::StudyRunReport rep = study::runStudy(st, ro);
   if (rep.stop_signal) app::exitCode() = 128 + rep.stop_signal;
-  else if (rep.failed) app::exitCode() = 1;
+  else if (rep.failed || !rep.stopped_because.empty()) app::exitCode() = 1;
 }
 
 void setup(CLI::App& sub) {

@@ -230,6 +230,64 @@ TEST(Ablate, KilledHalfwayThenResumedFinishesWithoutRedoingCells) {
   EXPECT_EQ(lines(test::readFile(out + "/results.csv")).size(), 4u);
 }
 
+TEST(Ablate, ExecutableReplacedMidStudyStartsNoFurtherCell) {
+  // A rebuild while a study runs replaces the dslam file: the cells after it
+  // would run another build (or, as before this test, fail to start with exit
+  // code 127). The study starts no further cell, says why, exits 1, and
+  // --resume finishes it with the new build.
+  const std::string dir = test::tempDir("ablate_rebuilt");
+  const std::string study = studyFile(dir, true);
+  const std::string out = dir + "/out";
+  ASSERT_EQ(ablate("'" + study + "' --out '" + out + "' --prepare").exit_code, 0);
+  const std::string exe = dir + "/dslam";  // a copy we can replace (RUNPATH is absolute)
+  fs::copy_file(test::dslamExe(), exe);
+  const std::string log = dir + "/ablate.log";
+  std::vector<std::string> args = {exe, "ablate", study, "--out", out, "--jobs", "1", "--scene-cache", sceneCache()};
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(exe.c_str(), argv.data());
+    _exit(127);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  int status = 0;
+  bool exited = false;
+  while (doneCells(out) < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(300)) {
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      exited = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_FALSE(exited) << test::readFile(log);
+  // Replace the file as a linker does (a new file under the old name).
+  fs::copy_file(test::dslamExe(), exe + ".new");
+  fs::rename(exe + ".new", exe);
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1) << test::readFile(log);
+  const std::string text = test::readFile(log);
+  EXPECT_NE(text.find("the dslam executable " + exe + " was replaced or removed while the study ran"), std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("cannot execute"), std::string::npos) << text;
+  const size_t done = doneCells(out);
+  EXPECT_GE(done, 1u);
+  EXPECT_LT(done, 3u) << text;
+  for (const auto& e : fs::directory_iterator(out + "/cells")) {
+    if (!fs::exists(e.path() / "done")) continue;
+    EXPECT_EQ(nlohmann::json::parse(test::readFile((e.path() / "result.json").string()))["status"], "ok") << e.path();
+  }
+  const auto r = test::run(test::cat("'", exe, "' ablate '", study, "' --out '", out, "' --scene-cache '", sceneCache(),
+                                     "' --resume 2>&1"));
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_EQ(doneCells(out), 3u);
+}
+
 TEST(Ablate, CellsThroughGnuParallelGiveTheTablesOfASingleProcessRun) {
   ASSERT_EQ(test::run("parallel --version > /dev/null 2>&1").exit_code, 0)
       << "GNU parallel is missing: scripts/install_deps.sh installs it (Debian package parallel)";

@@ -79,6 +79,22 @@ std::string exePath(const RunOptions& o) {
   return p.string();
 }
 
+/** Non-empty when the executable the cells run is gone: this process's own
+ *  file was replaced or removed since it started (Linux names it
+ *  "PATH (deleted)"), or the given one no longer exists. Cells started now
+ *  would run another build than the ones before (or fail to start). */
+std::string exeGone(const RunOptions& o) {
+  const std::string p = exePath(o);
+  const std::string deleted = " (deleted)";
+  const bool gone = o.dslam_exe.empty()
+                        ? p.size() > deleted.size() && p.compare(p.size() - deleted.size(), deleted.size(), deleted) == 0
+                        : !fs::exists(p);
+  if (!gone) return "";
+  return "the dslam executable " + (o.dslam_exe.empty() ? p.substr(0, p.size() - deleted.size()) : p) +
+         " was replaced or removed while the study ran (rebuilt?): no further cell started, so that one study "
+         "runs one build; the finished cells are kept, `dslam ablate STUDY --resume` runs the rest";
+}
+
 // ------------------------------------------------------------ processes --
 
 /** fork + exec of `args` with stdout and stderr into `log`, stdin from
@@ -104,8 +120,12 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& log) {
     sigemptyset(&none);
     ::sigprocmask(SIG_SETMASK, &none, nullptr);
     ::execv(argv[0], argv.data());
-    const char msg[] = "dslam ablate: cannot execute the dslam executable\n";
+    const int e = errno;
+    const char msg[] = "dslam ablate: cannot execute ";
     (void)!::write(2, msg, sizeof(msg) - 1);
+    (void)!::write(2, argv[0], std::strlen(argv[0]));
+    const char* why = e == ENOENT ? " (no such file)\n" : e == EACCES ? " (permission denied)\n" : "\n";
+    (void)!::write(2, why, std::strlen(why));
     ::_exit(127);
   }
   const int err = errno;
@@ -553,12 +573,17 @@ StudyRunReport runStudy(const Study& st, const RunOptions& o) {
   const double t0 = nowSeconds();
   auto stopRequested = [] { return g_stop.load() != 0; };
   bool forwarded = false;
-  while ((next < todo.size() && !stopRequested()) || !running.empty()) {
+  auto canStart = [&] {
+    if (stopRequested() || !rep.stopped_because.empty()) return false;
+    rep.stopped_because = exeGone(o);
+    return rep.stopped_because.empty();
+  };
+  while ((next < todo.size() && !stopRequested() && rep.stopped_because.empty()) || !running.empty()) {
     if (stopRequested() && !forwarded) {  // stop the running cells; they write their outputs and exit
       for (const auto& [p, s] : running) ::kill(p, SIGTERM);
       forwarded = true;
     }
-    while (!stopRequested() && running.size() < static_cast<size_t>(jobs) && next < todo.size()) {
+    while (running.size() < static_cast<size_t>(jobs) && next < todo.size() && canStart()) {
       const Cell& c = todo[next++];
       Started s = startCell(st, c, o, dataset_dir[c.dataset]);
       const pid_t pid = spawn(runArgs(st, s, o), (fs::path(s.dir) / "log.txt").string());
@@ -597,6 +622,9 @@ StudyRunReport runStudy(const Study& st, const RunOptions& o) {
     std::cout << "study interrupted (" << (rep.stop_signal == SIGINT ? "SIGINT" : "SIGTERM") << "): " << done
               << " cells finished in this session; `--resume` runs the rest" << std::endl;
   }
+  if (!rep.stopped_because.empty())
+    std::cout << "study stopped after " << done << " cells of " << todo.size() << ": " << rep.stopped_because
+              << std::endl;
   const size_t collected = writeResults(st, o);
   std::cout << "results of " << collected << " of " << plan.size() << " cells: " << o.out_dir << "/results.md"
             << " (" << rep.ok << " ok, " << rep.failed << " failed in this session, "

@@ -61,6 +61,10 @@ std::vector<Cell> selectCells(const std::vector<Cell>& plan, const std::vector<s
 struct StudyRunReport {
   size_t planned = 0, selected = 0, skipped = 0, ran = 0, ok = 0, failed = 0;
   int stop_signal = 0;  ///< SIGINT/SIGTERM that interrupted the study
+  /** Why no further cell was started although some were left: the dslam
+   *  executable was replaced or removed while the study ran (a rebuild);
+   *  the running cells finished with the build they started with. */
+  std::string stopped_because;
 };
 
 /** Runs the selected cells with at most o.jobs at a time, printing progress
