@@ -1,7 +1,6 @@
 // `dslam run` outputs under stress: SIGINT / SIGTERM mid-run finish every
 // output for the frames processed; SIGKILL leaves a trajectory that `dslam
 // eval` reads; events.jsonl stays valid JSON whatever an error message holds.
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -34,22 +33,8 @@ size_t countLines(const std::string& path) {
 /** Starts `dslam run` in the background (output to log). */
 pid_t spawnRun(const std::string& pipeline, const std::string& dataset, const std::string& out,
                const std::string& log) {
-  const std::string exe = test::dslamExe();
-  std::vector<std::string> args = {exe, "run", pipeline, "--dataset", dataset, "--out", out, "--no-progress"};
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, 1);
-      dup2(fd, 2);
-    }
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
+  return test::spawnLogged({test::dslamExe(), "run", pipeline, "--dataset", dataset, "--out", out, "--no-progress"},
+                           log);
 }
 
 /** Waits until `file` has at least `lines` lines (false after 120 s or if the

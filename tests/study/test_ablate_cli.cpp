@@ -4,7 +4,6 @@
 // redoing its finished cells; cells run one by one through GNU parallel and
 // --collect give the tables of a single-process run; a crashing cell is
 // recorded and the others go on; a bad study file stops before anything runs.
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -86,6 +85,25 @@ size_t doneCells(const std::string& out) {
   for (const auto& e : fs::directory_iterator(out + "/cells"))
     if (fs::exists(e.path() / "done")) n++;
   return n;
+}
+
+/** Starts `exe ablate study` (one job) in the background, output to `log`,
+ *  and waits until its first cell is done. Its pid; -1 (after a gtest
+ *  failure naming the log) if it exited before. */
+pid_t startAndWaitForACell(const std::string& exe, const std::string& study, const std::string& out,
+                           const std::string& log) {
+  const pid_t pid =
+      test::spawnLogged({exe, "ablate", study, "--out", out, "--jobs", "1", "--scene-cache", sceneCache()}, log);
+  const auto t0 = std::chrono::steady_clock::now();
+  int status = 0;
+  while (doneCells(out) < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(300)) {
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      ADD_FAILURE() << "the study ended before its first cell was done:\n" << test::readFile(log);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return pid;
 }
 
 /** Processes whose command line mentions `s` (the study's output folder). */
@@ -180,32 +198,10 @@ TEST(Ablate, KilledHalfwayThenResumedFinishesWithoutRedoingCells) {
   const std::string out = dir + "/out";
   // Render the scene first so that the study starts running cells at once.
   ASSERT_EQ(ablate("'" + study + "' --out '" + out + "' --prepare").exit_code, 0);
-  const std::string log = dir + "/ablate.log";
-  const std::string exe = test::dslamExe();
-  std::vector<std::string> args = {exe, "ablate", study, "--out", out, "--jobs", "1", "--scene-cache", sceneCache()};
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    dup2(fd, 1);
-    dup2(fd, 2);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
   // Kill it (SIGKILL: no clean-up at all) as soon as the first cell is done.
-  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = startAndWaitForACell(test::dslamExe(), study, out, dir + "/ablate.log");
+  ASSERT_GT(pid, 0);
   int status = 0;
-  bool exited = false;
-  while (doneCells(out) < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(300)) {
-    if (waitpid(pid, &status, WNOHANG) == pid) {
-      exited = true;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_FALSE(exited) << test::readFile(log);
   ::kill(pid, SIGKILL);
   waitpid(pid, &status, 0);
   const size_t done = doneCells(out);
@@ -242,29 +238,9 @@ TEST(Ablate, ExecutableReplacedMidStudyStartsNoFurtherCell) {
   const std::string exe = dir + "/dslam";  // a copy we can replace (RUNPATH is absolute)
   fs::copy_file(test::dslamExe(), exe);
   const std::string log = dir + "/ablate.log";
-  std::vector<std::string> args = {exe, "ablate", study, "--out", out, "--jobs", "1", "--scene-cache", sceneCache()};
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    dup2(fd, 1);
-    dup2(fd, 2);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(exe.c_str(), argv.data());
-    _exit(127);
-  }
-  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = startAndWaitForACell(exe, study, out, log);
+  ASSERT_GT(pid, 0);
   int status = 0;
-  bool exited = false;
-  while (doneCells(out) < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(300)) {
-    if (waitpid(pid, &status, WNOHANG) == pid) {
-      exited = true;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_FALSE(exited) << test::readFile(log);
   // Replace the file as a linker does (a new file under the old name).
   fs::copy_file(test::dslamExe(), exe + ".new");
   fs::rename(exe + ".new", exe);

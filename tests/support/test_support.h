@@ -34,6 +34,9 @@ struct CmdResult {
 CmdResult run(const std::string& cmdline);
 /** Runs `dslam <args>`. */
 CmdResult runDslam(const std::string& args);
+/** Starts args[0] with args in the background, stdout and stderr into
+ *  `log`; returns its pid (waitpid it). */
+int spawnLogged(std::vector<std::string> args, const std::string& log);
 std::string readFile(const std::string& path);
 /** Concatenation by append (GCC 12 reports false -Wrestrict warnings for
  *  chains of `"literal" + std::string + ...` in some inlined contexts). */
