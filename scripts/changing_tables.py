@@ -91,8 +91,8 @@ def main():
     print("| variant | scene | static objects found | stale (at places seen since) | moved found (max centroid-to-box "
           "error) | removed / replaced inactive | added found | false |")
     print("|---|---|---|---|---|---|---|---|")
-    keys = ("static_found", "static_total", "stale", "stale_place_seen", "moved_found", "moved_total",
-            "gone_inactive", "gone_total", "added_found", "added_total", "false_objects")
+    keys = ("static_found", "static_total", "stale", "stale_place_seen", "stale_dormant", "moved_found",
+            "moved_total", "gone_inactive", "gone_total", "added_found", "added_total", "false_objects")
     tot = {}
     for v in variants:
         t = dict.fromkeys(keys, 0)
@@ -122,7 +122,7 @@ def main():
         if t["static_total"]:
             print(f"- {v}: static objects found {t['static_found']}/{t['static_total']} = "
                   f"{100.0 * t['static_found'] / t['static_total']:.0f} %; stale {t['stale']} "
-                  f"({t['stale_place_seen']} at places seen since); moved found {t['moved_found']}/{t['moved_total']}; "
+                  f"({t['stale_place_seen']} at places seen since, {t['stale_dormant']} dormant); moved found {t['moved_found']}/{t['moved_total']}; "
                   f"removed / replaced inactive {t['gone_inactive']}/{t['gone_total']}; "
                   f"added found {t['added_found']}/{t['added_total']}; false {t['false_objects']}")
     if a.objects_only:

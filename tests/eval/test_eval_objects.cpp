@@ -226,6 +226,14 @@ TEST(EvalObjects, ObjectLeftAtItsOldPlaceIsStale) {
   EXPECT_EQ(gt(r, "suitcase").old_places[0].state, "active");
   ASSERT_EQ(gt(r, "suitcase").old_places[0].est.size(), 1u);
   EXPECT_EQ(gt(r, "suitcase").old_places[0].est[0], 4);
+  EXPECT_EQ(r.stale_dormant, 0);
+  m[3]["dormant"] = true;  // in the map, not used to localise until seen again: still stale, and said so
+  const auto rd = evaluate(writeRun(d + "/run_dormant", m), scene);
+  EXPECT_EQ(rd.stale, 1);
+  EXPECT_EQ(rd.stale_dormant, 1);
+  m[3]["dormant"] = "yes";
+  EXPECT_THROW(evaluate(writeRun(d + "/run_bad", m), scene), DataError);
+  m[3].erase("dormant");
 
   // Only the old object (the map never noticed the move): its centroid is
   // within the match radius of the new box (0.19 m) but nearer the old place,

@@ -140,6 +140,7 @@ EstObjects readEstObjects(const std::string& file) {
     e.box_min = o.contains("box_min") ? at.vec3(o["box_min"], "box_min") : e.centroid;
     e.box_max = o.contains("box_max") ? at.vec3(o["box_max"], "box_max") : e.centroid;
     e.active = at.boolean(at.need(o, "active"), "active");
+    e.dormant = o.contains("dormant") && at.boolean(o["dormant"], "dormant");
     e.points = static_cast<int>(at.integer(o, "points", 0));
     e.belief = at.number(o, "belief", e.active ? 1.0 : 0.0);
     e.first_seen_kf = at.integer(o, "first_seen_kf", -1);
@@ -676,6 +677,7 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
   }
   for (const auto& e : r.est) {
     r.stale += e.verdict == Verdict::Stale;
+    r.stale_dormant += e.verdict == Verdict::Stale && e.obj.dormant;
     r.false_objects += e.verdict == Verdict::False;
   }
   return r;
@@ -770,6 +772,7 @@ std::string toText(const ObjectEvalResult& r) {
   if (r.place_visibility)
     o << "; " << r.stale_seen << " at places seen since the object left, " << r.stale - r.stale_seen
       << " at places never seen since";
+  if (r.stale_dormant) o << "; " << r.stale_dormant << " dormant (not used to localise until seen again)";
   o << "\n";
   o << "moved objects found       " << ratio(r.moved_found, r.moved_total);
   if (!r.moved_errors.empty())
@@ -845,6 +848,7 @@ std::string toJson(const ObjectEvalResult& r) {
              {"recall", num(r.recall())},
              {"stale", r.stale},
              {"stale_place_seen", r.place_visibility ? ojson(r.stale_seen) : ojson(nullptr)},
+             {"stale_dormant", r.stale_dormant},
              {"moved_total", r.moved_total},
              {"moved_found", r.moved_found},
              {"moved_error_mean", r.moved_errors.empty() ? ojson(nullptr) : num(mean(r.moved_errors))},

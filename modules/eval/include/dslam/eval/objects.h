@@ -62,6 +62,10 @@ struct EstObject {
   int points = 0;
   double belief = 0;
   bool active = true;
+  /** In the map but not used to localise until seen again (dslam's object
+   *  persistence filter: not confirmed for long, or tracking was lost);
+   *  false when the file does not say. */
+  bool dormant = false;
   int64_t first_seen_kf = -1, last_seen_kf = -1;
   double first_seen_t = 0, last_seen_t = 0;
   int sightings = 0;
@@ -237,6 +241,9 @@ struct ObjectEvalResult {
    *  persistence filter had evidence to act on); the others stand at
    *  places never seen since, which no observation can have corrected. */
   int stale_seen = 0;
+  /** Stale objects that are dormant (`EstObject::dormant`): in the semantic
+   *  map, but taking no part in tracking or relocalisation. */
+  int stale_dormant = 0;
   bool place_visibility = false;  ///< seen_after computed (the scene has depth)
   double recall() const { return static_total ? double(static_found) / static_total : 0; }
 };
