@@ -126,7 +126,7 @@ void setup(CLI::App& sub) {
   sub.add_flag("--plan", o.plan, "print the cell ids, one per line, and exit");
   sub.add_option("--cell", o.cell, "run this one cell (cluster jobs); results: --collect");
   sub.add_option("--cell-index", o.cell_index, "run the cell on line N (from 0) of --plan, e.g. $SLURM_ARRAY_TASK_ID")
-      ->check(CLI::NonNegativeNumber);
+      ->check(app::kNonNegative);
   sub.add_flag("--collect", o.collect, "write results.csv/md/json and plots from the finished cells");
   sub.add_flag("--prepare", o.prepare, "render the scenario datasets into the scene cache and exit");
   sub.add_option("--scene-cache", o.scene_cache, "folder of rendered scenarios (default <out>/scenes)");

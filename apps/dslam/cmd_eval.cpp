@@ -38,7 +38,7 @@ void addCommon(CLI::App* c, Common& o, const char* default_align) {
   c->add_option("est", o.est, "estimated trajectory file")->required();
   c->add_option("--max-dt", o.max_dt, "association threshold |t_gt - t_est| < max_dt, seconds")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(app::kPositive);
   c->add_option("--align", o.align, "alignment of the estimate onto the ground truth")
       ->capture_default_str()
       ->check(CLI::IsMember({"se3", "sim3", "none"}));
@@ -201,7 +201,7 @@ void setup(CLI::App& sub) {
   auto* rpe = sub.add_subcommand("rpe", "Relative pose error over a fixed delta (translational m, rotational deg)");
   addCommon(rpe, rpe_o, "none");
   rpe->add_option("--delta", delta, "pair distance, in --delta-unit")->capture_default_str()->check(
-      CLI::PositiveNumber);
+      app::kPositive);
   rpe->add_option("--delta-unit", unit, "frames: associated poses; s: seconds; m: metres of ground-truth path")
       ->capture_default_str()
       ->check(CLI::IsMember({"frames", "s", "m"}));
@@ -222,23 +222,23 @@ void setup(CLI::App& sub) {
                   "align on the poses before this time, s (default: the first change event; all poses if none)");
   obj->add_option("--match-radius", obj_o.eo.match_radius, "centroid-to-box distance of a match, metres")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(app::kPositive);
   obj->add_option("--min-visible-pixels", obj_o.eo.min_visible_pixels,
                   "a ground-truth object counts if the camera saw this many of its pixels (summed over frames)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(app::kNonNegative);
   obj->add_option("--min-points", obj_o.eo.min_points,
                   "leave out estimated objects of fewer map points (the trade-off of outputs.objects_min_points "
                   "from a run with objects_min_points: 1; 0 = every object of the file)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(app::kNonNegative);
   obj->add_option("--max-dt", obj_o.eo.max_dt, "trajectory association threshold, seconds")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(app::kPositive);
   obj->add_option("--max-ate", obj_o.eo.max_ate,
                   "above this ATE rmse (m) of the alignment poses the run and the scene do not match")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(app::kPositive);
   obj->add_option("--json", obj_o.json, "also write the numbers to this JSON file");
   obj->callback([] { runObjects(obj_o); });
 

@@ -23,7 +23,7 @@ void setupEvalDense(CLI::App& eval) {
   c->add_option("--metadata", o.metadata, "dense.json of the map (default: beside it)");
   c->add_option("--frame-step", o.frame_step, "frames sampled for the movers' swept volume")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(dslam::app::kPositive);
   c->add_flag("--json", o.json, "print one JSON object instead of text");
   c->callback([] {
     namespace fs = std::filesystem;

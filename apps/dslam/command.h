@@ -9,6 +9,7 @@
  *  "error: ..."), CLI::ValidationError -> usage error, exit 2). */
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -27,6 +28,24 @@ struct CommandRegistrar {
     commands().push_back({name, desc, std::move(setup)});
   }
 };
+
+/** Option checks with a readable message (CLI11's PositiveNumber and
+ *  NonNegativeNumber print the largest double as the upper bound). */
+inline CLI::Validator numberAtLeast(double lo, bool strict) {
+  const std::string what = strict ? "greater than " : "at least ";
+  return CLI::Validator(
+      [lo, strict, what](std::string& s) -> std::string {
+        double v = 0;
+        if (!CLI::detail::lexical_cast(s, v)) return "'" + s + "' is not a number";
+        if (strict ? v > lo : v >= lo) return "";
+        char b[32];
+        std::snprintf(b, sizeof(b), "%g", lo);
+        return "must be " + what + b + ", got " + s;
+      },
+      strict ? "POSITIVE" : "NONNEGATIVE");
+}
+inline const CLI::Validator kPositive = numberAtLeast(0, true);
+inline const CLI::Validator kNonNegative = numberAtLeast(0, false);
 
 /** Exit code the callback asks for (0 unless set), e.g. a failed check. */
 int& exitCode();

@@ -414,6 +414,11 @@ std::vector<Case> cases() {
   c.push_back({"command line", "unknown option",
                [](const std::string&) { return std::string("run --no-such-option x.yaml"); }, 109,
                {"--no-such-option"}, "The following argument"});
+  c.push_back({"command line", "option value out of range",
+               [](const std::string&) { return std::string("eval objects run scene --min-points -1"); }, 105,
+               {"must be at least 0, got -1"}, "--min-points:"});
+  c.push_back({"command line", "required argument missing",
+               [](const std::string&) { return std::string("eval objects"); }, 106, {"is required"}, "run is required"});
   return c;
 }
 
@@ -458,7 +463,8 @@ TEST(BadInput, EveryCaseGivesItsMessageAndDocsErrorsIsCurrent) {
         "scene, `$SRC` the source tree; lists of valid names are shortened to `(valid: ...)`.\n\n"
         "Exit codes: 0 = success (a warning line says what was accepted or skipped), 1 = error\n"
         "(nothing is left half-written: outputs written so far are complete, see\n"
-        "[slam.md](slam.md)), 109 = command-line syntax (CLI11), 128 + signal = stopped by\n"
+        "[slam.md](slam.md)), 105-109 = command line (CLI11: 105 a value out of range, 106 a\n"
+        "required argument missing, 109 an unknown option), 128 + signal = stopped by\n"
         "SIGINT/SIGTERM after writing every output.\n\n"
         "| input | what is wrong | command | message | exit |\n|---|---|---|---|---|\n";
   const auto all = cases();
