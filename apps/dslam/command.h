@@ -6,7 +6,9 @@
  *      DSLAM_COMMAND(eval, "Evaluate trajectories (ATE, RPE)", setup);
  *
  *  Callbacks report errors by throwing (dslam::Error -> exit 1 with
- *  "error: ..."), CLI::ValidationError -> usage error, exit 2). */
+ *  "error: ..."); command-line errors exit with CLI11's codes (105 a value
+ *  a check refused, 106 a required argument missing, 109 an unknown
+ *  option; docs/errors.md). */
 #include <CLI/CLI.hpp>
 
 #include <cstdio>

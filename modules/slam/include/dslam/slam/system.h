@@ -121,8 +121,9 @@ class System {
    *  class, centroid, 3D box, belief, active, points, first/last seen, and
    *  the boxes of the current map's objects as PLY faces (green active, red
    *  inactive). Objects with fewer than `min_points` map points (the rest
-   *  culled) are left out. An empty path skips that file. */
-  void writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points = 5) const;
+   *  culled; `outputs.objects_min_points`) are left out. An empty path
+   *  skips that file. */
+  void writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points) const;
 
   StageTimer& timer() { return timer_; }
   const CameraModel& camera() const { return frontend_->camera(); }
