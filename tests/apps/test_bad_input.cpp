@@ -145,6 +145,13 @@ std::vector<Case> cases() {
                  return "config check " + q(pipeline(d, "pipeline: {name: x}\ncamera: $include{passwd}\n"));
                },
                1, {"passwd:1", "key 'camera'", "expected a map"}});
+  c.push_back({"pipeline YAML", "`$include{}` cycle below the top level (a.yaml -> b.yaml -> a.yaml)",
+               [](const std::string& d) {
+                 writeFile(d + "/a.yaml", "fx: $include{b.yaml}\n");
+                 writeFile(d + "/b.yaml", "fx: $include{a.yaml}\n");
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\ncamera: $include{a.yaml}\n"));
+               },
+               1, {"include cycle", "a.yaml includes itself", "b.yaml"}});
   c.push_back({"pipeline YAML", "`${VAR}` not set and without default",
                [](const std::string& d) {
                  return "config check " + q(pipeline(d, "pipeline: {name: ${DSLAM_TEST_UNSET_VARIABLE}}\n"));
@@ -257,6 +264,12 @@ std::vector<Case> cases() {
                  return "dataset info " + q(d + "/bad.rawlog");
                },
                1, {"bad.rawlog", "cannot read object 0", "corrupt or truncated"}});
+  c.push_back({"`dslam convert tum2rawlog` output", "a file of the input folder (groundtruth.txt)",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 return "convert tum2rawlog " + q(s) + " " + q(s + "/groundtruth.txt");
+               },
+               1, {"output $DIR/tum/groundtruth.txt is a file of the dataset folder", "refusing to overwrite it"}});
   // ---- trajectories and evaluation -----------------------------------------
   c.push_back({"`dslam eval` ground truth", "file does not exist",
                [](const std::string& d) {
@@ -281,6 +294,34 @@ std::vector<Case> cases() {
                  return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
                },
                1, {"no ground-truth pose within max_dt", "spans"}});
+  c.push_back({"`dslam eval` ground truth", "every position the same point, `--align sim3`",
+               [](const std::string& d) {
+                 std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
+                 std::string line, g;
+                 while (std::getline(in, line)) {
+                   std::istringstream f(line);
+                   std::string t;
+                   if (line.empty() || line[0] == '#' || !(f >> t)) continue;
+                   g += t + " 1 2 3 0 0 0 1\n";
+                 }
+                 writeFile(d + "/gt.txt", g);
+                 return "eval ate " + q(d + "/gt.txt") + " " + q(tinyScene() + "/groundtruth.txt") + " --align sim3";
+               },
+               1, {"ground-truth positions are all the same point"}});
+  c.push_back({"`dslam eval` estimate", "coordinates too large for double precision (1e200 m)",
+               [](const std::string& d) {
+                 std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
+                 std::string line, e;
+                 while (std::getline(in, line)) {
+                   std::istringstream f(line);
+                   std::string t;
+                   if (line.empty() || line[0] == '#' || !(f >> t)) continue;
+                   e += t + " 1e200 0 0 0 0 0 1\n";
+                 }
+                 writeFile(d + "/est.txt", e);
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt") + " --align none";
+               },
+               1, {"not finite numbers", "too large for double precision"}});
   c.push_back({"`dslam eval` ground truth", "repeated timestamp (accepted, as TUM's tools)",
                [](const std::string& d) {
                  std::string g = readFile(tinyScene() + "/groundtruth.txt");
@@ -303,6 +344,13 @@ std::vector<Case> cases() {
                  return "eval objects " + q(d + "/run") + " " + q(tinyScene());
                },
                1, {"$DIR/run", "has no objects.json"}});
+  c.push_back({"`dslam eval objects` run", "objects.json nested 100,000 levels deep",
+               [](const std::string& d) {
+                 fs::create_directories(d + "/run");
+                 writeFile(d + "/run/objects.json", std::string(100000, '[') + std::string(100000, ']'));
+                 return "eval objects " + q(d + "/run") + " " + q(tinyScene());
+               },
+               1, {"$DIR/run/objects.json:1:257", "nested more than 256 levels deep"}});
   c.push_back({"`dslam eval objects` run", "objects.json of another format",
                [](const std::string& d) {
                  writeFile(d + "/objects.json", "{\"format\": \"coco\", \"objects\": []}\n");

@@ -117,6 +117,17 @@ TEST(HogPeopleDetector, FindsThePerson) {
   EXPECT_LE(d.boxes.size(), 2u) << describe(d);
 }
 
+TEST(HogPeopleDetector, ImageSmallerThanItsWindowHasNoPerson) {
+  // OpenCV's HOG read out of bounds on these (segfault, heap corruption).
+  auto det = test::makeDetector("dslam::HogPeopleDetector");
+  for (const cv::Size sz : {cv::Size(200, 100), cv::Size(32, 32), cv::Size(1, 1), cv::Size(4000, 2)}) {
+    SensorFrame f;
+    f.image = cv::Mat(sz, CV_8UC3, cv::Scalar(90, 120, 150));
+    cv::randu(f.image, cv::Scalar::all(0), cv::Scalar::all(255));
+    EXPECT_TRUE(det->detect(f).boxes.empty()) << sz;
+  }
+}
+
 TEST(DnnSemanticSegmenter, EnetLabelsThePersonRegion) {
   const std::string img = personJpg();
   if (img.empty()) GTEST_SKIP();

@@ -239,7 +239,9 @@ struct Resolver {
         yaml sub = loadFile(inc);
         n = sub.node();
         out->origins[key_path] = inc;
+        stack.push_back(fs::weakly_canonical(inc).string());  // the chain of includes being resolved
         resolveNode(n, key_path, inc);
+        stack.pop_back();
       }
     }
   }
@@ -252,10 +254,7 @@ struct Resolver {
     if (!f) throw DataError("cannot read YAML file: " + path);
     std::stringstream ss;
     ss << f.rdbuf();
-    stack.push_back(canon);
-    yaml y = parseText(expandVariables(ss.str(), path), path);
-    stack.pop_back();
-    return y;
+    return parseText(expandVariables(ss.str(), path), path);
   }
 };
 

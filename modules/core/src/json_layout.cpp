@@ -40,6 +40,43 @@ std::string layoutText(const J& j, int depth) {
   return o.str();
 }
 
+/** line:column of byte `pos` of `text`. */
+std::string lineColumn(const std::string& text, size_t pos) {
+  size_t line = 1, col = 1;
+  for (size_t i = 0; i < pos && i < text.size(); i++) {
+    if (text[i] == '\n') {
+      line++;
+      col = 1;
+    } else {
+      col++;
+    }
+  }
+  return std::to_string(line) + ":" + std::to_string(col);
+}
+
+/** No dslam JSON file nests deeper than a few levels; a hostile file nested
+ *  100,000 levels deep would exhaust the stack of the code that walks it. */
+void checkJsonDepth(const std::string& text, const std::string& file) {
+  constexpr int kMaxDepth = 256;
+  int depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); i++) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') i++;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxDepth)
+        throw DataError(file + ":" + lineColumn(text, i) + ": invalid JSON: nested more than " +
+                        std::to_string(kMaxDepth) + " levels deep");
+    } else if (c == ']' || c == '}') {
+      depth--;
+    }
+  }
+}
+
 }  // namespace
 
 std::string layoutJson(const nlohmann::ordered_json& j, int depth) { return layoutText(j, depth); }
@@ -53,23 +90,15 @@ nlohmann::json parseJsonFile(const std::string& file) {
   std::ostringstream ss;
   ss << f.rdbuf();
   const std::string text = ss.str();
+  checkJsonDepth(text, file);
   try {
     return json::parse(text);
   } catch (const json::parse_error& e) {
     // byte offset -> line:column
     const size_t pos = std::min<size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    size_t line = 1, col = 1;
-    for (size_t i = 0; i < pos; i++) {
-      if (text[i] == '\n') {
-        line++;
-        col = 1;
-      } else {
-        col++;
-      }
-    }
     std::string what = e.what();
     if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
-    throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " + what);
+    throw DataError(file + ":" + lineColumn(text, pos) + ": invalid JSON: " + what);
   } catch (const json::exception& e) {  // e.g. out_of_range: "number overflow parsing '1e58140'"
     std::string what = e.what();
     if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);

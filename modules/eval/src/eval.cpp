@@ -66,6 +66,9 @@ Stats computeStats(const std::vector<double>& v) {
   double var = 0;
   for (double e : v) var += (e - s.mean) * (e - s.mean);
   s.std = std::sqrt(var / n);
+  if (!std::isfinite(s.rmse) || !std::isfinite(s.std))
+    throw DataError("the errors are not finite numbers: pose coordinates too large for double precision (" +
+                    std::to_string(s.max) + " m)");
   std::vector<double> w = v;
   const size_t h = w.size() / 2;
   std::nth_element(w.begin(), w.begin() + h, w.end());
@@ -114,11 +117,19 @@ Alignment alignPoints(const std::vector<Eigen::Vector3d>& est, const std::vector
     dst.col(i) = gt[static_cast<size_t>(i)];
   }
   if (method == Align::Sim3) {
-    const Eigen::Vector3d c = src.rowwise().mean();
-    if ((src.colwise() - c).squaredNorm() / static_cast<double>(n) < 1e-24)
+    auto samePoint = [n](const Eigen::Matrix3Xd& m) {
+      const Eigen::Vector3d c = m.rowwise().mean();
+      return (m.colwise() - c).squaredNorm() / static_cast<double>(n) < 1e-24;
+    };
+    if (samePoint(src))
       throw DataError("sim3 alignment: the associated estimate positions are all the same point (scale undefined)");
+    if (samePoint(dst))
+      throw DataError("sim3 alignment: the associated ground-truth positions are all the same point (scale undefined)");
   }
   const Eigen::Matrix4d M = Eigen::umeyama(src, dst, method == Align::Sim3);
+  if (!M.allFinite())
+    throw DataError(std::string(toString(method)) +
+                    " alignment failed (non-finite result): positions too large or degenerate for double precision");
   Eigen::Matrix3d sR = M.block<3, 3>(0, 0);
   a.scale = method == Align::Sim3 ? sR.col(0).norm() : 1.0;
   a.T = SE3(Eigen::Matrix3d(sR / a.scale), Eigen::Vector3d(M.block<3, 1>(0, 3)));

@@ -52,6 +52,9 @@ Detections HogPeopleDetector::detect(const SensorFrame& frame) {
     f = double(max_width_) / img.cols;
     cv::resize(img, img, cv::Size(), f, f, cv::INTER_AREA);
   }
+  // No person fits an image smaller than the 64 x 128 detection window (and
+  // OpenCV's HOG reads out of bounds on such images): nothing to report.
+  if (img.cols < hog_.winSize.width || img.rows < hog_.winSize.height) return d;
   std::vector<cv::Rect> found;
   std::vector<double> weights;
   hog_.detectMultiScale(img, found, weights, hit_threshold_, cv::Size(win_stride_, win_stride_),
