@@ -164,6 +164,20 @@ std::vector<Case> cases() {
                                       "height: 240}\n"));
                },
                1, {"pipeline.yaml:2", "camera.fx", "out of range"}});
+  c.push_back({"camera section", "infinite focal length",
+               [](const std::string& d) {
+                 return "config check " +
+                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: .inf, fy: 500, cx: 160, cy: 120, width: 320, "
+                                      "height: 240}\n"));
+               },
+               1, {"pipeline.yaml:2", "camera.fx", "expected a finite number"}});
+  c.push_back({"camera section", "image width 0",
+               [](const std::string& d) {
+                 return "config check " +
+                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: 500, fy: 500, cx: 160, cy: 120, width: 0, "
+                                      "height: 240}\n"));
+               },
+               1, {"pipeline.yaml:2", "'width' must be greater than 0"}});
   // ---- datasets -------------------------------------------------------------
   c.push_back({"dataset", "folder does not exist",
                [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },

@@ -65,6 +65,9 @@ static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset,
   if (take("cx")) cam.cx = p.getDouble("cx");
   if (take("cy")) cam.cy = p.getDouble("cy");
   if (take("dist")) cam.dist = distFrom(p.getDoubleList("dist"), where);
+  for (const char* k : {"width", "height", "fx", "fy"})  // 0 is only the "not given" default
+    if (p.isGiven(k) && !(p.getDouble(k) > 0))
+      throw ConfigError(where + ": '" + k + "' must be greater than 0, got " + yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?"));
   if (!use_preset) {
     for (const char* k : {"width", "height", "fx", "fy", "cx", "cy"})
       if (!p.isGiven(k))
@@ -85,6 +88,8 @@ CameraModel cameraFromParams(const Params& p) {
   if (take("sensor")) c.sensor = sensorTypeFromString(p.getString("sensor"));
   intrinsicsFrom(p, c.left, use_preset, where);
   if (take("depth_factor")) c.depth_factor = p.getDouble("depth_factor");
+  if (p.isGiven("depth_factor") && !(c.depth_factor > 0))
+    throw ConfigError(where + ": 'depth_factor' must be greater than 0 (raw depth units per metre), got 0");
   if (take("depth_threshold")) c.depth_threshold = p.getDouble("depth_threshold");
   if (take("fps")) c.fps = p.getDouble("fps");
   if (take("rgb")) c.rgb_order = p.getBool("rgb");

@@ -1,6 +1,7 @@
 #include "dslam/core/params.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -144,6 +145,8 @@ std::optional<std::string> checkScalar(const ParamSpec& s, ParamType t, const no
         x = static_cast<double>(*i);
       if (!x)
         err = std::string(is_int ? "expected an integer" : "expected a number") + ", got '" + *txt + "'";
+      else if (!std::isfinite(*x))
+        err = "expected a finite number, got '" + *txt + "'";
       else if ((s.min && *x < *s.min) || (s.max && *x > *s.max))
         err = "value " + *txt + " out of range [" + (s.min ? fmtDouble(*s.min) : "-inf") + ", " +
               (s.max ? fmtDouble(*s.max) : "inf") + "]";
