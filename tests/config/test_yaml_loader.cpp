@@ -75,6 +75,66 @@ TEST(YamlLoader, IncludeCycleAndMissingIncludeAreErrors) {
   EXPECT_THROW(config::loadYamlFile(d + "/missing.yaml"), DataError);
 }
 
+TEST(YamlLoader, IncludeCycleBelowTheTopLevelIsAnError) {
+  // top.yaml -> a.yaml -> b.yaml -> a.yaml: this recursed until the stack overflowed.
+  const std::string d = test::tempDir("yaml");
+  test::writeFile(d + "/a.yaml", "fx: $include{b.yaml}\n");
+  test::writeFile(d + "/b.yaml", "fx: $include{a.yaml}\n");
+  test::writeFile(d + "/top.yaml", "camera: $include{a.yaml}\n");
+  try {
+    config::loadYamlFile(d + "/top.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("include cycle: " + d + "/a.yaml includes itself"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(YamlLoader, EmptyValuesAreNullAsInYaml) {
+  // MRPT's parser rejects empty values ("Unexpected empty scalar", no line).
+  const auto y = config::loadYamlText(
+      "tracking:\n#  min_inliers: 20\nlist:\n-\n- 3\nnested:\n  - name: a\n    params:\ntext: |\n  a:\n  b:\n"
+      "seq:\n- x\nlast:",
+      "t.yaml", "/tmp");
+  const auto& r = *y.root;
+  EXPECT_TRUE(r["tracking"].isNullNode());
+  EXPECT_TRUE(r["list"](0).isNullNode());
+  EXPECT_EQ(r["list"](1).as<int>(), 3);
+  EXPECT_TRUE(r["nested"](0)["params"].isNullNode());
+  EXPECT_EQ(r["text"].as<std::string>(), "a:\nb:\n");  // a block scalar is left alone
+  EXPECT_EQ(r["seq"](0).as<std::string>(), "x");   // a sequence at the key's indentation is its value
+  EXPECT_TRUE(r["last"].isNullNode());
+  // Where a null is not allowed, the error names file, line and key.
+  try {
+    config::loadPipelineText("pipeline: {name: x}\nmodules:\n  -\n", "/cfg");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(":3: key 'modules[0]'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(YamlLoader, AKeyTwiceInOneMapIsAnError) {
+  // MRPT kept the last one silently: `pipeline:` twice ran the second.
+  auto errorOf = [](const std::string& text) {
+    try {
+      config::loadYamlText(text, "t.yaml", "/tmp");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(errorOf("pipeline:\n  name: a\npipeline:\n  name: b\n")
+                .find("t.yaml:3: key 'pipeline' appears twice in the same map (first on line 1)"),
+            std::string::npos);
+  EXPECT_NE(errorOf("f:\n  n: 1\n  # n: 2\n  m: 2\n  n: 3\n").find("t.yaml:5: key 'n'"), std::string::npos);
+  EXPECT_NE(errorOf("modules:\n  - name: a\n    type: x\n    type: y\n").find("t.yaml:4: key 'type'"),
+            std::string::npos);
+  // The same key in sibling maps, in the items of a list, or in a block scalar is fine.
+  EXPECT_EQ(errorOf("a:\n  n: 1\nb:\n  n: 1\nl:\n  - name: x\n    n: 1\n  - name: y\n    n: 2\n"
+                    "t: |\n  n: 1\n  n: 2\n"),
+            "");
+}
+
 TEST(YamlLoader, NoShellExecution) {
   // $(...) and backticks are plain text: nothing is executed.
   const std::string d = test::tempDir("yaml");

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <cctype>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -194,7 +195,152 @@ std::string syntaxError(const std::string& diag, const std::string& file) {
   return file + ": YAML syntax error: " + first.substr(0, 200);
 }
 
-yaml parseText(const std::string& text, const std::string& file) {
+/** YAML reads an empty value ("tracking:" with nothing below it, a bare
+ *  "-") as null, which MRPT's parser rejects ("Unexpected empty scalar", no
+ *  line). Writes an explicit null (~) there; returns how many. Block
+ *  scalars (| and >) are left alone. */
+/** A YAML line without its trailing comment (a '#' after a space, not
+ *  inside quotes) and trailing spaces. */
+std::string lineContent(const std::string& l) {
+  char quote = 0;
+  size_t end = l.size();
+  for (size_t i = 0; i < l.size(); i++) {
+    const char c = l[i];
+    if (quote) {
+      if (c == quote) quote = 0;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '#' && (i == 0 || l[i - 1] == ' ' || l[i - 1] == '\t')) {
+      end = i;
+      break;
+    }
+  }
+  std::string r = l.substr(0, end);
+  while (!r.empty() && (r.back() == ' ' || r.back() == '\t' || r.back() == '\r')) r.pop_back();
+  return r;
+}
+
+std::vector<std::string> splitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  std::string l;
+  while (std::getline(in, l)) lines.push_back(l);
+  return lines;
+}
+
+/** Column of the key on a "- - key:" line (the first non-dash item). */
+size_t itemColumn(const std::string& c, size_t ind) {
+  size_t item = ind;
+  while (item + 1 < c.size() && c[item] == '-' && c[item + 1] == ' ') item = c.find_first_not_of(' ', item + 1);
+  return item;
+}
+
+/** "key" of a block-mapping line "key: value" / "key:" starting at `from`
+ *  (plain or quoted key); empty if the line is no such entry. */
+std::string mappingKey(const std::string& c, size_t from) {
+  if (from >= c.size() || c[from] == '{' || c[from] == '[' || c[from] == '-' || c[from] == '?') return "";
+  size_t i = from;
+  if (c[i] == '"' || c[i] == '\'') {
+    const size_t close = c.find(c[i], i + 1);
+    if (close == std::string::npos) return "";
+    i = close + 1;
+  } else {
+    while (i < c.size() && !(c[i] == ':' && (i + 1 == c.size() || c[i + 1] == ' '))) i++;
+  }
+  if (i >= c.size() || c[i] != ':' || (i + 1 < c.size() && c[i + 1] != ' ')) return "";
+  return c.substr(from, i - from);
+}
+
+/** "key: |", "- >-", "key: |2": the line opens a block scalar. */
+bool startsBlockScalar(const std::string& c) {
+  size_t e = c.size();
+  while (e > 0 && (c[e - 1] == '-' || c[e - 1] == '+' || std::isdigit(static_cast<unsigned char>(c[e - 1])))) e--;
+  if (e == 0 || (c[e - 1] != '|' && c[e - 1] != '>')) return false;
+  size_t b = e - 1;
+  while (b > 0 && c[b - 1] == ' ') b--;
+  return b < e - 1 && b > 0 && (c[b - 1] == ':' || c[b - 1] == '-');
+}
+
+size_t fillEmptyValues(std::string& text) {
+  std::vector<std::string> lines = splitLines(text);
+  auto indentOf = [](const std::string& l) { return l.find_first_not_of(' '); };
+  size_t filled = 0;
+  size_t block_indent = std::string::npos;  // inside a | or > block scalar deeper than this
+  for (size_t i = 0; i < lines.size(); i++) {
+    const std::string c = lineContent(lines[i]);
+    const size_t ind = indentOf(c);
+    if (ind == std::string::npos) continue;  // blank or comment
+    if (block_indent != std::string::npos) {
+      if (ind > block_indent) continue;
+      block_indent = std::string::npos;
+    }
+    if (startsBlockScalar(c)) {
+      block_indent = ind;
+      continue;
+    }
+    const bool dash = c.compare(ind, std::string::npos, "-") == 0;
+    const bool key = !dash && c.back() == ':';
+    if (!dash && !key) continue;
+    size_t next_ind = std::string::npos;
+    std::string next;
+    for (size_t j = i + 1; j < lines.size() && next_ind == std::string::npos; j++) {
+      next = lineContent(lines[j]);
+      next_ind = indentOf(next);
+    }
+    const size_t item = itemColumn(c, ind);
+    const bool next_is_item = next_ind != std::string::npos && next[next_ind] == '-' &&
+                              (next_ind + 1 == next.size() || next[next_ind + 1] == ' ');
+    const bool has_block =
+        next_ind != std::string::npos && (next_ind > item || (key && next_ind == item && next_is_item));
+    if (has_block) continue;
+    lines[i] = c + " ~" + lines[i].substr(c.size());
+    filled++;
+  }
+  if (filled) {
+    std::string out;
+    for (const auto& l : lines) out += l + "\n";
+    text = out;
+  }
+  return filled;
+}
+
+/** YAML forbids a key twice in one mapping, and MRPT's parser silently keeps
+ *  the last one: `pipeline:` written twice ran the second. Block mappings
+ *  only (flow mappings {a: 1, a: 2} are not checked). */
+void checkDuplicateKeys(const std::string& text, const std::string& file) {
+  struct Level {
+    size_t column;
+    std::map<std::string, size_t> keys;  ///< key -> line
+  };
+  std::vector<Level> stack;
+  const std::vector<std::string> lines = splitLines(text);
+  size_t block_indent = std::string::npos;
+  for (size_t i = 0; i < lines.size(); i++) {
+    const std::string c = lineContent(lines[i]);
+    const size_t ind = c.find_first_not_of(' ');
+    if (ind == std::string::npos || c.compare(ind, 3, "---") == 0 || c.compare(ind, 3, "...") == 0) continue;
+    if (block_indent != std::string::npos) {
+      if (ind > block_indent) continue;
+      block_indent = std::string::npos;
+    }
+    const size_t col = itemColumn(c, ind);
+    const bool item = col != ind;  // a "- " sequence item opens a new mapping at col
+    while (!stack.empty() && (stack.back().column > col || (item && stack.back().column >= col))) stack.pop_back();
+    if (startsBlockScalar(c)) block_indent = ind;
+    const std::string key = mappingKey(c, col);
+    if (key.empty()) continue;
+    if (stack.empty() || stack.back().column != col) stack.push_back({col, {}});
+    auto [it, fresh] = stack.back().keys.emplace(key, i + 1);
+    if (!fresh)
+      throw ConfigError(file + ":" + std::to_string(i + 1) + ": key '" + key +
+                        "' appears twice in the same map (first on line " + std::to_string(it->second) +
+                        "); YAML would keep only the last one");
+  }
+}
+
+yaml parseText(const std::string& text_in, const std::string& file) {
+  std::string text = text_in;
+  fillEmptyValues(text);
   if (const size_t bad = yamlu::invalidUtf8(text); bad != std::string::npos)  // libfyaml can hang on it
     throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text, bad)) + ": not valid UTF-8 text (byte " +
                       std::to_string(bad) + "); YAML files must be UTF-8");
@@ -214,6 +360,7 @@ yaml parseText(const std::string& text, const std::string& file) {
     throw ConfigError(file + ": YAML syntax error: " + exception_msg.substr(0, exception_msg.find('\n')));
   }
   if (!diag.empty()) std::cerr << diag;  // warnings: pass them on
+  checkDuplicateKeys(text, file);
   return y;
 }
 
