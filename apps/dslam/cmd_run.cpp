@@ -13,7 +13,7 @@ void setup(CLI::App& sub) {
   sub.add_option("config", file, "pipeline YAML (config/pipelines/...)")->required();
   sub.add_option("-d,--dataset", ov.dataset, "dataset folder or rawlog (type auto-detected); overrides the file's dataset path");
   sub.add_option("-o,--out", ov.out_dir, "output folder (default: outputs.dir or out/<pipeline name>)");
-  sub.add_option("-n,--max-frames", ov.max_frames, "process at most N frames");
+  sub.add_option("-n,--max-frames", ov.max_frames, "process at most N frames")->check(dslam::app::kPositive);
   sub.add_option("--load-atlas", ov.load_atlas, "start from a saved atlas (dslam run --save-atlas / outputs.atlas)");
   sub.add_option("--save-atlas", ov.save_atlas, "save every map to this file at the end (overrides outputs.atlas)");
   sub.add_flag("--localization-only", ov.localization_only, "track against the loaded map without mapping");

@@ -24,7 +24,7 @@ void setup(CLI::App& sub) {
   sub.add_option("scenario", o.scenario, "scenario YAML (config/scenarios/*.yaml)")->required();
   sub.add_option("--out,-o", o.out, "output folder (TUM RGB-D layout)")->required();
   sub.add_option("--seed", o.seed, "random seed (default: the scenario's)");
-  sub.add_option("--frames", o.frames, "number of frames (default: the scenario's)");
+  sub.add_option("--frames", o.frames, "number of frames (default: the scenario's)")->check(dslam::app::kPositive);
   sub.add_option("--resolution", o.resolution, "image size WxH, e.g. 320x240 (intrinsics are scaled)");
   sub.add_flag("--overwrite", o.overwrite, "replace an existing output folder");
   sub.add_flag("--no-noise", o.no_noise, "exact depth and images (no sensor noise, no depth-edge dropout)");
@@ -33,7 +33,6 @@ void setup(CLI::App& sub) {
   sub.add_option("--threads", o.threads, "render threads (default: all cores; output does not depend on it)");
   sub.callback([] {
     dslam::synth::ScenarioOverrides ov;
-    if (o.frames < 0) throw dslam::ConfigError("--frames must be positive");
     ov.frames = o.frames;
     if (o.seed >= 0) ov.seed = static_cast<uint64_t>(o.seed);
     if (!o.resolution.empty()) {
@@ -43,6 +42,8 @@ void setup(CLI::App& sub) {
         throw dslam::ConfigError("--resolution: expected WxH (e.g. 640x480), got '" + o.resolution + "'");
       ov.width = std::stoi(m[1].str());
       ov.height = std::stoi(m[2].str());
+      if (ov.width <= 0 || ov.height <= 0)
+        throw dslam::ConfigError("--resolution: width and height must be greater than 0, got '" + o.resolution + "'");
     }
     if (o.no_noise) ov.noise = false;
     dslam::synth::WriteOptions wo;

@@ -182,6 +182,13 @@ std::vector<Case> cases() {
   c.push_back({"dataset", "folder does not exist",
                [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },
                1, {"dataset not found", "nowhere"}});
+  c.push_back({"output folder", "`--out` is a file",
+               [](const std::string& d) {
+                 writeFile(d + "/afile", "x\n");
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(tinyScene()) + " --out " + q(d + "/afile") +
+                        " --no-progress";
+               },
+               1, {"output folder $DIR/afile is a file, not a folder"}});
   c.push_back({"TUM rgb.txt", "timestamp that is not a number",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
@@ -231,6 +238,16 @@ std::vector<Case> cases() {
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  fs::copy_file(nthFile(s + "/rgb", 1), nthFile(s + "/depth", 1), fs::copy_options::overwrite_existing);
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"frame 1", "is not 16-bit single channel"}});
+  c.push_back({"TUM depth image", "16-bit with three channels",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 const cv::Mat one = cv::imread(nthFile(s + "/depth", 1), cv::IMREAD_UNCHANGED);
+                 cv::Mat three;
+                 cv::merge(std::vector<cv::Mat>{one, one, one}, three);
+                 cv::imwrite(nthFile(s + "/depth", 1), three);
                  return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
                },
                1, {"frame 1", "is not 16-bit single channel"}});

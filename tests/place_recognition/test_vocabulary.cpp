@@ -449,6 +449,13 @@ TEST(VocabularyFiles, TextStructureErrors) {
   EXPECT_NE(e.find("marked leaf but has children"), std::string::npos) << e;
   e = errorOf([&] { Vocabulary::load(writeTemp("h.txt", "10 6 0 9\n")); });
   EXPECT_NE(e.find("weighting type 9"), std::string::npos) << e;
+  // A word weight that is not a finite number >= 0 (inf scored every query nan).
+  for (const char* w : {" inf\n", " nan\n", " -1\n"}) {
+    bad = s;
+    bad.replace(bad.find(" 2.5\n"), 5, w);
+    e = errorOf([&] { Vocabulary::load(writeTemp("w.txt", bad)); });
+    EXPECT_NE(e.find("word 3 has weight"), std::string::npos) << w << e;
+  }
 }
 
 TEST(VocabularyFiles, SharedDbow3Yaml) {

@@ -1,6 +1,7 @@
 #include "dslam/core/paths.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -74,6 +75,15 @@ void requireFile(const std::string& p, const std::string& what, const std::strin
 void requireDir(const std::string& p, const std::string& what, const std::string& hint) {
   if (!dirExists(p))
     throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));
+}
+
+void makeOutputDir(const std::string& p, const std::string& what) {
+  std::error_code ec;
+  if (fs::exists(p, ec) && !fs::is_directory(p, ec))
+    throw DataError(what + " " + p + " is a file, not a folder");
+  fs::create_directories(p, ec);
+  if (ec) throw DataError("cannot create " + what + " " + p + ": " + ec.message());
+  if (::access(p.c_str(), W_OK) != 0) throw DataError(what + " " + p + " is not writable");
 }
 
 }  // namespace dslam

@@ -2,6 +2,7 @@
 #include "dslam/place_recognition/vocabulary.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
@@ -80,6 +81,10 @@ Vocabulary Vocabulary::fromTree(int k, int L, WeightingType wt, ScoringType st, 
     throw DataError(what + ": " + std::to_string(parents.size()) + " parents but " +
                     std::to_string(descriptors.size()) + " descriptors");
   if (words.size() != weights.size()) throw DataError(what + ": word and weight counts differ");
+  for (size_t w = 0; w < weights.size(); ++w)
+    if (!std::isfinite(weights[w]) || weights[w] < 0)
+      throw DataError(what + ": word " + std::to_string(w) + " has weight " + std::to_string(weights[w]) +
+                      " (weights are finite and >= 0)");
   if (n > 0xFFFFFFF0u) throw DataError(what + ": too many nodes");
   if (n < 2) throw DataError(what + ": the tree has no nodes");
   // Children lists (sibling order = input order) in CSR form.

@@ -165,7 +165,11 @@ std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverride
   std::string out = ov.out_dir;
   if (out.empty()) out = pc.outputs.getString("dir");
   if (out.empty()) out = "out/" + pc.name;
-  fs::create_directories(out);
+  makeOutputDir(out, "output folder");
+  // An atlas path that cannot be written is found now, not after the whole run.
+  if (const std::string ap = ov.save_atlas.empty() ? outPath(pc, out, "atlas") : ov.save_atlas; !ap.empty()) {
+    makeOutputDir(fs::absolute(ap).parent_path().string(), "folder of the atlas file " + ap + ":");
+  }
   if (const std::string rc = outPath(pc, out, "resolved_config"); !rc.empty()) {
     config::PipelineConfig resolved = pc;
     resolved.dataset = dc;

@@ -535,6 +535,7 @@ CellResult runCell(const Study& st, const Cell& c, const RunOptions& o) {
 
 StudyRunReport runStudy(const Study& st, const RunOptions& o) {
   StudyRunReport rep;
+  makeOutputDir(o.out_dir, "study output folder");
   const auto plan = st.plan();
   rep.planned = plan.size();
   const auto selected = selectCells(plan, o.only);

@@ -100,7 +100,7 @@ ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& o
     cv::Mat rgb = ds::readImage(tum.rgbPath(i), i, "image", cv::IMREAD_UNCHANGED);
     if (rgb.depth() != CV_8U) throw DataError("frame " + std::to_string(i) + ": image " + tum.rgbPath(i) + " is not 8-bit");
     if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_BGRA2BGR);
-    const cv::Mat depth = ds::readImage(tum.depthPath(i), i, "depth image", cv::IMREAD_ANYDEPTH);
+    const cv::Mat depth = ds::readImage(tum.depthPath(i), i, "depth image", cv::IMREAD_UNCHANGED);
     if (depth.type() != CV_16UC1)
       throw DataError("frame " + std::to_string(i) + ": depth image " + tum.depthPath(i) + " is not 16-bit single channel");
     if (depth.size() != rgb.size())

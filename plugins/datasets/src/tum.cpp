@@ -196,7 +196,7 @@ SensorFrame TumDataset::read(size_t i) {
   f.image = ds::readImage(f.image_path, i, "image", cv::IMREAD_UNCHANGED);
   if (!it.depth.empty()) {
     f.depth_path = resolvePath(it.depth, root_);
-    cv::Mat raw = ds::readImage(f.depth_path, i, "depth image", cv::IMREAD_ANYDEPTH);
+    cv::Mat raw = ds::readImage(f.depth_path, i, "depth image", cv::IMREAD_UNCHANGED);
     if (raw.type() != CV_16UC1)
       throw DataError("frame " + std::to_string(i) + ": depth image " + f.depth_path + " is not 16-bit single channel");
     if (raw.size() != f.image.size())

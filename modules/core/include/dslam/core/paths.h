@@ -24,5 +24,8 @@ bool dirExists(const std::string& p);
 /** Throws DataError("<what> not found: <path>" + hint) if missing. */
 void requireFile(const std::string& p, const std::string& what, const std::string& hint = "");
 void requireDir(const std::string& p, const std::string& what, const std::string& hint = "");
+/** Creates output folder `p` (and its parents); a DataError naming `what`
+ *  and the path when it cannot: a file is in the way, no permission. */
+void makeOutputDir(const std::string& p, const std::string& what);
 
 }  // namespace dslam
