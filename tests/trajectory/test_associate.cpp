@@ -40,6 +40,13 @@ TEST(Associate, MatchesWithinMaxDtOnly) {
   EXPECT_EQ(associate({0.0, 1.0, 2.0}, {0.005, 1.01, 2.3}, 0.5), (Pairs{{0, 0}, {1, 1}, {2, 2}}));
 }
 
+TEST(Associate, HugeTimestampsWhereTPlusMaxDtRoundsToT) {
+  // Near 1e15 s the spacing of doubles is 0.125 s: ta + 0.04 == ta, and
+  // identical stamps were not associated.
+  const double t = 1e15 + 1000;
+  EXPECT_EQ(associate({t, t + 0.125}, {t, t + 0.125}, 0.02), (Pairs{{0, 0}, {1, 1}}));
+}
+
 TEST(Associate, ThresholdIsStrict) {
   // 1/64 is exact in binary: |dt| == max_dt is not a match.
   EXPECT_TRUE(associate({0.0}, {0.015625}, 0.015625).empty());

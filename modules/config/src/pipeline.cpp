@@ -264,6 +264,8 @@ void checkModuleInputs(const std::vector<ModuleConfig>& modules) {
         names.push_back(modules[b].name);
         found |= (b != a && modules[b].name == in);
       }
+      if (!found && in == modules[a].name)
+        throw ConfigError(modules[a].where.str() + ".inputs: module '" + in + "' lists itself as its input");
       if (!found)
         throw ConfigError(modules[a].where.str() + ".inputs: unknown module '" + in + "'" +
                           yamlu::didYouMean(in, names) + " (modules: " + yamlu::join(names) + ")");

@@ -80,7 +80,7 @@ ParamSpec P_map(std::string name, std::string def, std::string doc) {
 std::string SourceLocation::str() const {
   std::string s;
   if (!file.empty()) s += file;
-  if (line >= 0) s.append(":").append(std::to_string(line));
+  if (line >= 0 && !file.empty()) s.append(":").append(std::to_string(line));  // no ":1:" for text without a file
   if (!s.empty()) s += ": ";
   if (!key_path.empty()) s += "key '" + key_path + "'";
   return s;

@@ -38,8 +38,9 @@ std::vector<std::pair<size_t, size_t>> associate(const std::vector<double>& a, c
   size_t lo = 0;
   for (size_t ia : oa) {
     const double ta = a[ia];
-    while (lo < ob.size() && b[ob[lo]] < ta - 2 * max_dt) lo++;
-    for (size_t k = lo; k < ob.size() && b[ob[k]] < ta + 2 * max_dt; k++) {
+    // Differences, not ta +- 2 max_dt: near 1e15 s a double cannot hold ta + 0.04.
+    while (lo < ob.size() && ta - b[ob[lo]] > 2 * max_dt) lo++;
+    for (size_t k = lo; k < ob.size() && b[ob[k]] - ta < 2 * max_dt; k++) {
       const double d = std::abs(ta - b[ob[k]]);
       if (d < max_dt) cands.push_back({d, ia, ob[k]});
     }
