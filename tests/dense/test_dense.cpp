@@ -4,6 +4,7 @@
 // completeness of crafted maps against a small scene.
 #include <gtest/gtest.h>
 
+#include <octomap/OcTree.h>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
@@ -430,4 +431,35 @@ TEST(DenseEval, CompletenessOfACraftedMap) {
   EXPECT_GE(full.completeness, 0.995);
   std::cout << "completeness without the far wall " << without_wall << ", with it " << full.completeness << " of "
             << full.surface_samples << " samples\n";
+}
+
+// loadDenseMap checks map.bt against dense.json: a resolution outside 0.1 mm-100 m
+// (1e-300 printed a 300-digit median), two files of different runs, a bad max_range.
+TEST(DenseEval, LoadRefusesInconsistentFiles) {
+  const std::string d = test::tempDir("dense_files");
+  auto write = [&](double res, const std::string& json) {
+    octomap::OcTree t(res);
+    t.updateNode(octomap::point3d(0.1f, 0.2f, 0.3f), true);
+    t.writeBinary(d + "/map.bt");
+    test::writeFile(d + "/dense.json", json);
+  };
+  auto errorOf = [&] {
+    try {
+      loadDenseMap(d + "/map.bt");
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string ok = R"({"resolution": 0.05, "max_range": 4.0, "keyframes": []})";
+  write(0.05, ok);
+  EXPECT_EQ(errorOf(), "");
+  write(1.0, ok);
+  EXPECT_NE(errorOf().find("'resolution' 0.05 does not match"), std::string::npos) << errorOf();
+  write(1e-300, ok);
+  EXPECT_NE(errorOf().find("OctoMap resolution 1e-300 m is outside"), std::string::npos) << errorOf();
+  write(0.05, R"({"resolution": 0.05, "max_range": -4, "keyframes": []})");
+  EXPECT_NE(errorOf().find("'max_range' must be a number > 0"), std::string::npos) << errorOf();
+  write(0.05, R"({"resolution": 0.05, "max_range": 4})");
+  EXPECT_NE(errorOf().find("dense.json: key 'keyframes' not found"), std::string::npos) << errorOf();
 }

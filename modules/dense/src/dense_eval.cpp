@@ -16,6 +16,7 @@
 #include <unordered_set>
 
 #include "dslam/core/error.h"
+#include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
 #include "dslam/synth/renderer.h"
 #include "dslam/synth/scene.h"
@@ -92,6 +93,17 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
   octomap::OcTree tree(0.1);
   if (!tree.readBinary(bt_path)) throw DataError("cannot read OctoMap binary file " + bt_path);
   m.resolution = tree.getResolution();
+  if (!(m.resolution >= 1e-4 && m.resolution <= 100))
+  {
+    char res[32];
+    std::snprintf(res, sizeof(res), "%g", m.resolution);
+    throw DataError(bt_path + ": OctoMap resolution " + res + " m is outside 0.0001-100 m (not a dslam dense map?)");
+  }
+  const json j = parseJsonFile(jp);
+  if (j.contains("resolution") &&
+      (!j["resolution"].is_number() || std::abs(j["resolution"].get<double>() - m.resolution) > 1e-6 * m.resolution))
+    throw DataError(jp + ": 'resolution' " + j["resolution"].dump() + " does not match " + bt_path + "'s " +
+                    std::to_string(m.resolution) + " m (files of two different runs?)");
   for (auto l = tree.begin_leafs(), end = tree.end_leafs(); l != end; ++l) {
     if (!tree.isNodeOccupied(*l)) continue;
     const octomap::point3d c = l.getCoordinate();
@@ -103,9 +115,8 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
                                   c.z() + (e - (n - 1) / 2.0) * m.resolution);
   }
   try {
-    std::ifstream in(jp);
-    const json j = json::parse(in);
     m.max_range = j.at("max_range").get<double>();
+    if (!(m.max_range > 0)) throw DataError(jp + ": 'max_range' must be a number > 0, got " + j["max_range"].dump());
     m.min_range = j.value("min_range", 0.0);
     for (const json& k : j.at("keyframes")) {
       if (!k.value("integrated", false)) continue;
@@ -119,7 +130,9 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
       m.keyframes.push_back(kf);
     }
   } catch (const json::exception& e) {
-    throw DataError(jp + ": " + e.what());
+    std::string what = e.what();  // without nlohmann's "[json.exception.out_of_range.403] "
+    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw DataError(jp + ": " + what);
   }
   return m;
 }
