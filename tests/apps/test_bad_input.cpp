@@ -234,6 +234,13 @@ std::vector<Case> cases() {
                  return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
                },
                1, {"frame 2", "cannot read image", "corrupt or unsupported image"}});
+  c.push_back({"TUM rgb image", "16-bit (a depth image in rgb/)",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 fs::copy_file(nthFile(s + "/depth", 1), nthFile(s + "/rgb", 1), fs::copy_options::overwrite_existing);
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+               },
+               1, {"frame 1", "is 16-bit; camera images must be 8-bit"}});
   c.push_back({"TUM depth image", "8-bit instead of 16-bit",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);

@@ -23,7 +23,9 @@ cv::Mat readImage(const std::string& path, size_t frame, const std::string& what
     try {
       m = readImageFile(path, flags);  // PNG through the fast decoder (dslam/core/png.h)
     } catch (const cv::Exception& e) {
-      throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path + " (" + e.what() + ")");
+      // e.what() is several lines ("OpenCV(4.6.0) file:line: error: ..."); the condition and function are enough.
+      throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path + " (OpenCV: " + e.err +
+                      (e.func.empty() ? "" : " in " + e.func) + ")");
     }
     if (m.empty())
       throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path +
@@ -31,6 +33,14 @@ cv::Mat readImage(const std::string& path, size_t frame, const std::string& what
     return m;
   }
   throw DataError("frame " + std::to_string(frame) + ": " + what + " " + path + " is missing");
+}
+
+cv::Mat readCameraImage(const std::string& path, size_t frame, const std::string& what) {
+  cv::Mat m = readImage(path, frame, what, cv::IMREAD_UNCHANGED);
+  if (m.depth() != CV_8U)
+    throw DataError("frame " + std::to_string(frame) + ": " + what + " " + path + " is " +
+                    (m.depth() == CV_16U ? "16" : "not 8") + "-bit; camera images must be 8-bit grey or colour");
+  return m;
 }
 
 std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt) {

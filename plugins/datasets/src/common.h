@@ -20,6 +20,9 @@ constexpr double kGtMaxDt = 0.02;
 /** cv::imread with a DataError naming the frame, what and the path, and
  *  whether the file is missing or unreadable. */
 cv::Mat readImage(const std::string& path, size_t frame, const std::string& what, int flags);
+/** readImage(path, frame, what, cv::IMREAD_UNCHANGED) of a camera image:
+ *  8-bit grey, colour or colour + alpha (a 16-bit image is a DataError). */
+cv::Mat readCameraImage(const std::string& path, size_t frame, const std::string& what);
 
 /** Ground-truth pose nearest to t if within max_dt (gt stamps sorted). */
 std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt = kGtMaxDt);

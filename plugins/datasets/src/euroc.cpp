@@ -237,7 +237,7 @@ SensorFrame EurocDataset::read(size_t i) {
   f.index = static_cast<int>(i);
   f.timestamp = it.t_ns * 1e-9;
   f.image_path = it.left;
-  f.image = ds::readImage(it.left, i, "left image", cv::IMREAD_UNCHANGED);
+  f.image = ds::readCameraImage(it.left, i, "left image");
   const auto check = [&](const cv::Mat& m, const PinholeCamera& c, const std::string& path) {
     if (m.cols != c.width || m.rows != c.height)
       throw DataError("frame " + std::to_string(i) + ": image " + path + " is " + std::to_string(m.cols) + "x" +
@@ -247,7 +247,7 @@ SensorFrame EurocDataset::read(size_t i) {
   check(f.image, camera_->left, it.left);
   if (stereo_) {
     f.image_right_path = it.right;
-    f.image_right = ds::readImage(it.right, i, "right image", cv::IMREAD_UNCHANGED);
+    f.image_right = ds::readCameraImage(it.right, i, "right image");
     check(f.image_right, camera_->right, it.right);
   }
   f.gt_T_wc = ds::nearestPose(gt_, f.timestamp);

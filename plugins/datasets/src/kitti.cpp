@@ -219,10 +219,10 @@ SensorFrame KittiDataset::read(size_t i) {
   f.index = static_cast<int>(i);
   f.timestamp = stamps_[i];
   f.image_path = left_dir_ + "/" + names_[i];
-  f.image = ds::readImage(f.image_path, i, "left image", cv::IMREAD_UNCHANGED);
+  f.image = ds::readCameraImage(f.image_path, i, "left image");
   if (stereo_) {
     f.image_right_path = right_dir_ + "/" + names_[i];
-    f.image_right = ds::readImage(f.image_right_path, i, "right image", cv::IMREAD_UNCHANGED);
+    f.image_right = ds::readCameraImage(f.image_right_path, i, "right image");
     if (f.image_right.size() != f.image.size())
       throw DataError("frame " + std::to_string(i) + ": right image " + f.image_right_path +
                       " size differs from the left image " + f.image_path);

@@ -193,7 +193,7 @@ SensorFrame TumDataset::read(size_t i) {
   f.index = static_cast<int>(i);
   f.timestamp = it.t_rgb;
   f.image_path = resolvePath(it.rgb, root_);
-  f.image = ds::readImage(f.image_path, i, "image", cv::IMREAD_UNCHANGED);
+  f.image = ds::readCameraImage(f.image_path, i, "image");
   if (!it.depth.empty()) {
     f.depth_path = resolvePath(it.depth, root_);
     cv::Mat raw = ds::readImage(f.depth_path, i, "depth image", cv::IMREAD_UNCHANGED);
