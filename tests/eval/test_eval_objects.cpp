@@ -405,6 +405,11 @@ TEST(EvalObjects, BadInputs) {
   has(one(R"({"id": 4, "class_id": 62, "class": "couch", )" + c + "}"), "class 'couch' is not the name of class id 62");
   has(one(R"({"id": 4, "class_id": 62, "active": true})"), "missing 'centroid'");
   has(one(R"({"id": 4, "class_id": 62, "centroid": [1, 2], "active": true})"), "'centroid' must be [x, y, z]");
+  has(one(R"({"id": 4, "class_id": 62, "box_min": [0, 1, 0], "box_max": [1, 0, 1], )" + c + "}"),
+      "box_min is above box_max on axis y");
+  has(one(R"({"id": 4, "class_id": 62, "points": -3, )" + c + "}"), "'points' must be >= 0");
+  has(one(R"({"id": 4, "class_id": 62, )" + c + R"(}, {"id": 4, "class_id": 56, )" + c + "}"),
+      "objects[1] (id 4): id 4 appears twice in map 0");
 
   has(dataError([&] { eval::readScene(d + "/nothere"); }), "scene folder not found");
   std::filesystem::create_directories(d + "/empty");

@@ -148,6 +148,14 @@ EstObjects readEstObjects(const std::string& file) {
     e.first_seen_t = at.number(o, "first_seen_t", 0.0);
     e.last_seen_t = at.number(o, "last_seen_t", 0.0);
     e.sightings = static_cast<int>(at.integer(o, "sightings", 0));
+    for (int k = 0; k < 3; k++)
+      if (e.box_min[k] > e.box_max[k])
+        at.fail("box_min is above box_max on axis " + std::string(1, "xyz"[k]) + " (" + std::to_string(e.box_min[k]) +
+                " > " + std::to_string(e.box_max[k]) + ")");
+    if (e.points < 0) at.fail("'points' must be >= 0, got " + std::to_string(e.points));
+    for (const auto& prev : out.objects)
+      if (prev.id == e.id && prev.map == e.map)
+        at.fail("id " + std::to_string(e.id) + " appears twice in map " + std::to_string(e.map));
     out.objects.push_back(e);
   }
   return out;
