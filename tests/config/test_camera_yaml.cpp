@@ -46,6 +46,36 @@ TEST(Camera, MissingIntrinsicsIsAClearError) {
   EXPECT_THROW(config::loadCameraFile(d + "/d.yaml"), ConfigError);  // 3 distortion values
 }
 
+TEST(Camera, ZeroIntrinsicsAndNonRotationsAreClearErrors) {
+  // fx: 0 / width: 0 passed and failed mid-run without the file; depth_factor: 0
+  // became 5000; a T_body_cam scaled by 2 was silently normalised.
+  const std::string d = test::tempDir("cam");
+  const std::string base = "sensor: rgbd\nwidth: 640\nheight: 480\nfx: 500\nfy: 500\ncx: 320\ncy: 240\n";
+  auto errorOf = [&](const std::string& text) {
+    test::writeFile(d + "/c.yaml", text);
+    try {
+      config::loadCameraFile(d + "/c.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorOf(base), "");
+  EXPECT_NE(errorOf(base + "depth_factor: 0\n").find("'depth_factor' must be greater than 0"), std::string::npos);
+  std::string t = base;
+  EXPECT_NE(errorOf(t.replace(t.find("fx: 500"), 7, "fx: 0")).find("'fx' must be greater than 0, got 0"),
+            std::string::npos);
+  t = base;
+  EXPECT_NE(errorOf(t.replace(t.find("width: 640"), 10, "width: 0")).find("'width' must be greater than 0"),
+            std::string::npos);
+  t = base;
+  EXPECT_NE(errorOf(t.replace(t.find("fx: 500"), 7, "fx: .inf")).find("expected a finite number"), std::string::npos);
+  EXPECT_NE(errorOf(base + "T_body_cam: [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1]\n")
+                .find("T_body_cam: the 3x3 block is not a rotation"),
+            std::string::npos);
+  EXPECT_EQ(errorOf(base + "T_body_cam: [0, -1, 0, 0.1, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"), "");
+}
+
 TEST(Camera, PresetOverride) {
   const std::string d = test::tempDir("cam");
   test::writeFile(d + "/c.yaml", "camera:\n  preset: tum_fr3\n  fx: 600\n  width: 320\n");

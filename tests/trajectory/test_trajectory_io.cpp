@@ -232,6 +232,13 @@ TEST(TrajectoryIo, KittiBadInputs) {
   m = test::dataError([&] { traj::read(d + "/k.txt"); });
   EXPECT_NE(m.find(d + "/k.txt:1: rotation has determinant < 0"), std::string::npos) << m;
 
+  // Not a rotation: all zeros (scored rotational RPE as if it were one), scaled by 2.
+  for (const char* rot : {"0 0 0 0 0 0 0 0 0 0 0 0\n", "2 0 0 0 0 2 0 0 0 0 2 0\n"}) {
+    writeFile(d + "/k.txt", std::string("1 0 0 0 0 1 0 0 0 0 1 0\n") + rot);
+    m = test::dataError([&] { traj::read(d + "/k.txt"); });
+    EXPECT_NE(m.find(d + "/k.txt:2: the 3x3 block is not a rotation"), std::string::npos) << m;
+  }
+
   // Times file shorter / longer than the poses file, non-numeric, empty.
   writeFile(d + "/k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n");
   writeFile(d + "/t1.txt", "0.0\n");

@@ -45,6 +45,11 @@ SE3 se3FromRowMajor(const std::vector<double>& v, const std::string& what) {
   Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 4; c++) T(r, c) = v[r * 4 + c];
+  const Eigen::Matrix3d R = T.block<3, 3>(0, 0);
+  if (!T.allFinite() || !((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-2) ||
+      R.determinant() < 0)
+    throw ConfigError(what + ": the 3x3 block is not a rotation (R^T R differs from the identity by more than 0.01, "
+                             "or a reflection)");
   return SE3(T);
 }
 
