@@ -270,6 +270,9 @@ TEST(TumDataset, ListsAreReadAsTheTumToolsReadThem) {
   testing::internal::CaptureStderr();
   EXPECT_EQ(readTumList(t.dir + "/depth.txt").size(), 5u);
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  // A UTF-8 byte-order mark before the first line (said "got '\xEF\xBB\xBF1.0 ...'").
+  writeFile(t.dir + "/bom.txt", "\xEF\xBB\xBF" "1.0 rgb/1.000000.png\n1.1 rgb/1.100000.png\n");
+  EXPECT_EQ(readTumList(t.dir + "/bom.txt").size(), 2u);
 
   // The dataset opens with these lists and reads frames in time order.
   writeFile(t.dir + "/associations.txt",

@@ -59,6 +59,8 @@ TEST(TrajectoryIo, ReadsTumWithComments) {
   EXPECT_DOUBLE_EQ(t.poses[1].translation().x(), 0.1);
   EXPECT_NEAR(t.poses[2].angle(), M_PI / 2, 1e-12);
   EXPECT_EQ(traj::detectFormat(f), traj::Format::Tum);
+  writeFile(f, "\xEF\xBB\xBF" + std::string(kTumOk));  // a UTF-8 byte-order mark
+  EXPECT_EQ(traj::read(f).size(), 2u);
 }
 
 TEST(TrajectoryIo, NanIsRejectedWithFileAndLine) {

@@ -381,8 +381,8 @@ struct Resolver {
       if (const auto path = includePath(*t)) {
         const std::string inc = resolvePath(*path, fs::path(cur_file).parent_path().string());
         if (!fileExists(inc))
-          throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path +
-                            "': included file not found: " + inc);
+          throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path + "': included " +
+                            (fs::exists(inc) ? "path is not a regular file: " : "file not found: ") + inc);
         yaml sub = loadFile(inc);
         n = sub.node();
         out->origins[key_path] = inc;

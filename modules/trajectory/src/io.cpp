@@ -51,6 +51,7 @@ std::vector<Line> readLines(const std::string& path) {
   int n = 0;
   while (std::getline(f, s)) {
     n++;
+    if (n == 1 && s.compare(0, 3, "\xEF\xBB\xBF") == 0) s.erase(0, 3);  // UTF-8 byte-order mark (Windows editors)
     if (const size_t hash = s.find('#'); hash != std::string::npos) s.erase(hash);
     if (!s.empty() && s.back() == '\r') s.pop_back();
     if (s.find_first_not_of(" \t\r") == std::string::npos) continue;

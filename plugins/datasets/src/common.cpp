@@ -87,6 +87,7 @@ std::vector<TextLine> readDataLines(const std::string& file, const std::string& 
   int n = 0;
   while (std::getline(f, s)) {
     n++;
+    if (n == 1 && s.compare(0, 3, "\xEF\xBB\xBF") == 0) s.erase(0, 3);  // UTF-8 byte-order mark (Windows editors)
     if (!s.empty() && s.back() == '\r') s.pop_back();
     const size_t p = s.find_first_not_of(" \t");
     if (p == std::string::npos || s[p] == '#') continue;
