@@ -8,6 +8,7 @@
 
 #include "command.h"
 #include "dslam/core/error.h"
+#include "dslam/core/paths.h"
 #include "dslam/study/runner.h"
 #include "dslam/study/study.h"
 
@@ -86,6 +87,9 @@ void run(const Opts& o) {
     return;
   }
   if (o.collect) {
+    if (!dirExists(ro.out_dir + "/cells"))
+      throw DataError(ro.out_dir + " has no finished cells of study " + st.name +
+                      " (no cells/ folder): give the --out of a run of this study");
     const size_t n = study::writeResults(st, ro);
     std::cout << "collected " << n << " of " << plan.size() << " cells: " << ro.out_dir << "/results.md" << std::endl;
     return;

@@ -187,6 +187,9 @@ void EurocDataset::configure(const Params& p, const PluginContext& ctx) {
     cam.right = ri.cam;
     cam.T_left_right = li.T_BS.inverse() * ri.T_BS;
     cam.baseline = cam.T_left_right.translation().norm();
+    if (cam.baseline < 1e-6)
+      throw DataError(rdir + "/sensor.yaml: T_BS puts the right camera where the left one is (" + ldir +
+                      "/sensor.yaml): stereo baseline 0");
     std::vector<double> ta, tb;
     for (const auto& e : lefts) ta.push_back(e.stamp_ns * 1e-9);
     for (const auto& e : rights) tb.push_back(e.stamp_ns * 1e-9);

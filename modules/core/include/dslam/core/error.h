@@ -36,6 +36,8 @@ inline std::string exceptionSummary(const std::exception& e, size_t max_len = 30
   }
   if (const size_t nl = s.find('\n'); nl != std::string::npos) s.erase(nl);
   if (s.size() > max_len) s = s.substr(0, max_len) + "...";
+  for (char& c : s)  // a class name read from a corrupt file: raw bytes
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
   return s;
 }
 
