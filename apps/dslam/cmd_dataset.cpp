@@ -66,7 +66,10 @@ void info(const Opts& op) {
     // The value is YAML (typed by the parameter); the key is taken as it is.
     given[kv.substr(0, eq).c_str()] = mrpt::containers::yaml::FromText(kv.substr(eq + 1));
   }
-  ds->configure(Params::resolve(ds->paramSpecs(), &given, SourceLocation{}), PluginContext{});
+  SourceLocation where;
+  where.file = "--param";
+  where.node_lines = false;  // the values come from the command line, not a file
+  ds->configure(Params::resolve(ds->paramSpecs(), &given, where), PluginContext{});
 
   auto& o = std::cout;
   o << std::setprecision(10);

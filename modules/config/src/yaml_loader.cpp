@@ -364,6 +364,11 @@ yaml parseText(const std::string& text_in, const std::string& file) {
   return y;
 }
 
+bool pathExists(const std::string& p) {
+  std::error_code ec;  // "File name too long" and the like: not there
+  return fs::exists(p, ec);
+}
+
 struct Resolver {
   LoadedYaml* out;
   std::vector<std::string> stack;
@@ -382,7 +387,7 @@ struct Resolver {
         const std::string inc = resolvePath(*path, fs::path(cur_file).parent_path().string());
         if (!fileExists(inc))
           throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path + "': included " +
-                            (fs::exists(inc) ? "path is not a regular file: " : "file not found: ") + inc);
+                            (pathExists(inc) ? "path is not a regular file: " : "file not found: ") + inc);
         yaml sub = loadFile(inc);
         n = sub.node();
         out->origins[key_path] = inc;

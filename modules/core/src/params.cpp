@@ -80,7 +80,7 @@ ParamSpec P_map(std::string name, std::string def, std::string doc) {
 std::string SourceLocation::str() const {
   std::string s;
   if (!file.empty()) s += file;
-  if (line >= 0 && !file.empty()) s.append(":").append(std::to_string(line));  // no ":1:" for text without a file
+  if (line >= 0) s.append(":").append(std::to_string(line));
   if (!s.empty()) s += ": ";
   if (!key_path.empty()) s += "key '" + key_path + "'";
   return s;
@@ -121,7 +121,7 @@ std::string keyPathOf(const SourceLocation& where, const std::string& key) {
                          const std::string& what) {
   SourceLocation w = where;
   w.key_path = keyPathOf(where, key);
-  if (n) w.line = n->marks.line + 1;
+  if (n && w.node_lines) w.line = n->marks.line + 1;
   throw ConfigError(w.str() + ": " + what);
 }
 
@@ -239,7 +239,7 @@ Params Params::resolve(const std::vector<ParamSpec>& specs, const yaml* given, c
     g = &given->node();
     if (!g->isMap()) {
       SourceLocation w = where;
-      if (w.line < 0) w.line = g->marks.line + 1;
+      if (w.line < 0 && w.node_lines) w.line = g->marks.line + 1;
       throw ConfigError(w.str() + ": expected a map of parameters, got " + yamlu::describe(*g));
     }
   }

@@ -35,7 +35,9 @@ Params readerParams(const std::vector<ParamSpec>& specs, const std::vector<std::
   mrpt::containers::yaml given = mrpt::containers::yaml::Map();
   for (const auto& [k, v] : kv)
     if (!v.empty()) given[k.c_str()] = v;
-  return Params::resolve(specs, &given, SourceLocation{});
+  SourceLocation where;
+  where.node_lines = false;  // options of dslam convert, not lines of a file
+  return Params::resolve(specs, &given, where);
 }
 
 /** Restores CImage's global JPEG flag on scope exit. */

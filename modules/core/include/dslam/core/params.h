@@ -63,6 +63,7 @@ struct SourceLocation {
   std::string file;      ///< may be empty (programmatic config)
   std::string key_path;  ///< e.g. "modules[2].params"
   int line = -1;         ///< 1-based, -1 unknown
+  bool node_lines = true;  ///< errors take the line of the YAML node (false: values built from the command line)
   std::string str() const;  ///< "file:line: key 'path'"
 };
 
