@@ -157,27 +157,19 @@ std::vector<Case> cases() {
                  return "config check " + q(pipeline(d, "pipeline: {name: ${DSLAM_TEST_UNSET_VARIABLE}}\n"));
                },
                1, {"DSLAM_TEST_UNSET_VARIABLE", "is not set and has no default"}});
-  c.push_back({"camera section", "negative focal length",
-               [](const std::string& d) {
-                 return "config check " +
-                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: -5, fy: 500, cx: 160, cy: 120, width: 320, "
-                                      "height: 240}\n"));
-               },
-               1, {"pipeline.yaml:2", "camera.fx", "out of range"}});
-  c.push_back({"camera section", "infinite focal length",
-               [](const std::string& d) {
-                 return "config check " +
-                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: .inf, fy: 500, cx: 160, cy: 120, width: 320, "
-                                      "height: 240}\n"));
-               },
-               1, {"pipeline.yaml:2", "camera.fx", "expected a finite number"}});
-  c.push_back({"camera section", "image width 0",
-               [](const std::string& d) {
-                 return "config check " +
-                        q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: 500, fy: 500, cx: 160, cy: 120, width: 0, "
-                                      "height: 240}\n"));
-               },
-               1, {"pipeline.yaml:2", "'width' must be greater than 0"}});
+  // A pipeline's camera section with one key replaced (fx 500, width 320 otherwise).
+  auto camera = [](const std::string& fx, const std::string& width) {
+    return [fx, width](const std::string& d) {
+      return "config check " + q(pipeline(d, "pipeline: {name: x}\ncamera: {fx: " + fx + ", fy: 500, cx: 160, cy: 120, "
+                                             "width: " + width + ", height: 240}\n"));
+    };
+  };
+  c.push_back({"camera section", "negative focal length", camera("-5", "320"), 1,
+               {"pipeline.yaml:2", "camera.fx", "out of range"}});
+  c.push_back({"camera section", "infinite focal length", camera(".inf", "320"), 1,
+               {"pipeline.yaml:2", "camera.fx", "expected a finite number"}});
+  c.push_back({"camera section", "image width 0", camera("500", "0"), 1,
+               {"pipeline.yaml:2", "'width' must be greater than 0"}});
   // ---- datasets -------------------------------------------------------------
   c.push_back({"dataset", "folder does not exist",
                [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },
