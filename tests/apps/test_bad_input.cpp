@@ -46,6 +46,20 @@ const std::string& tinyScene() {
   return dir;
 }
 
+/** A TUM trajectory with the tiny scene's ground-truth stamps, each with
+ *  the same pose "tx ty tz qx qy qz qw". */
+std::string sceneStampsWithPose(const std::string& pose) {
+  std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
+  std::string line, out;
+  while (std::getline(in, line)) {
+    std::istringstream f(line);
+    std::string t;
+    if (line.empty() || line[0] == '#' || !(f >> t)) continue;
+    out += t + " " + pose + "\n";
+  }
+  return out;
+}
+
 /** A copy of the tiny scene in dir/tum; returns its path. */
 std::string sceneCopy(const std::string& dir) {
   const std::string d = dir + "/tum";
@@ -326,29 +340,13 @@ std::vector<Case> cases() {
                1, {"no ground-truth pose within max_dt", "spans"}});
   c.push_back({"`dslam eval` ground truth", "every position the same point, `--align sim3`",
                [](const std::string& d) {
-                 std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
-                 std::string line, g;
-                 while (std::getline(in, line)) {
-                   std::istringstream f(line);
-                   std::string t;
-                   if (line.empty() || line[0] == '#' || !(f >> t)) continue;
-                   g += t + " 1 2 3 0 0 0 1\n";
-                 }
-                 writeFile(d + "/gt.txt", g);
+                 writeFile(d + "/gt.txt", sceneStampsWithPose("1 2 3 0 0 0 1"));
                  return "eval ate " + q(d + "/gt.txt") + " " + q(tinyScene() + "/groundtruth.txt") + " --align sim3";
                },
                1, {"ground-truth positions are all the same point"}});
   c.push_back({"`dslam eval` estimate", "coordinates too large for double precision (1e200 m)",
                [](const std::string& d) {
-                 std::istringstream in(readFile(tinyScene() + "/groundtruth.txt"));
-                 std::string line, e;
-                 while (std::getline(in, line)) {
-                   std::istringstream f(line);
-                   std::string t;
-                   if (line.empty() || line[0] == '#' || !(f >> t)) continue;
-                   e += t + " 1e200 0 0 0 0 0 1\n";
-                 }
-                 writeFile(d + "/est.txt", e);
+                 writeFile(d + "/est.txt", sceneStampsWithPose("1e200 0 0 0 0 0 1"));
                  return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt") + " --align none";
                },
                1, {"not finite numbers", "too large for double precision"}});
