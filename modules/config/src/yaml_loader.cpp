@@ -195,10 +195,6 @@ std::string syntaxError(const std::string& diag, const std::string& file) {
   return file + ": YAML syntax error: " + first.substr(0, 200);
 }
 
-/** YAML reads an empty value ("tracking:" with nothing below it, a bare
- *  "-") as null, which MRPT's parser rejects ("Unexpected empty scalar", no
- *  line). Writes an explicit null (~) there; returns how many. Block
- *  scalars (| and >) are left alone. */
 /** A YAML line without its trailing comment (a '#' after a space, not
  *  inside quotes) and trailing spaces. */
 std::string lineContent(const std::string& l) {
@@ -261,6 +257,10 @@ bool startsBlockScalar(const std::string& c) {
   return b < e - 1 && b > 0 && (c[b - 1] == ':' || c[b - 1] == '-');
 }
 
+/** YAML reads an empty value ("tracking:" with nothing below it, a bare
+ *  "-") as null, which MRPT's parser rejects ("Unexpected empty scalar", no
+ *  line). Writes an explicit null (~) there; returns how many. Block
+ *  scalars (| and >) are left alone. */
 size_t fillEmptyValues(std::string& text) {
   std::vector<std::string> lines = splitLines(text);
   auto indentOf = [](const std::string& l) { return l.find_first_not_of(' '); };
@@ -339,11 +339,11 @@ void checkDuplicateKeys(const std::string& text, const std::string& file) {
 }
 
 yaml parseText(const std::string& text_in, const std::string& file) {
+  if (const size_t bad = yamlu::invalidUtf8(text_in); bad != std::string::npos)  // libfyaml can hang on it
+    throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text_in, bad)) + ": not valid UTF-8 text (byte " +
+                      std::to_string(bad) + "); YAML files must be UTF-8");
   std::string text = text_in;
   fillEmptyValues(text);
-  if (const size_t bad = yamlu::invalidUtf8(text); bad != std::string::npos)  // libfyaml can hang on it
-    throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text, bad)) + ": not valid UTF-8 text (byte " +
-                      std::to_string(bad) + "); YAML files must be UTF-8");
   yaml y;
   std::string exception_msg;
   const std::string diag = captureStderr([&] {
