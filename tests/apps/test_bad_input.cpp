@@ -107,6 +107,11 @@ std::string estObject(const std::string& cls) {
 
 const std::string kBaseline = "config/pipelines/orbslam_baseline.yaml";
 
+/** `dslam run` of the baseline pipeline on `dataset`, writing to `out`. */
+std::string runBaseline(const std::string& dataset, const std::string& out) {
+  return "run " + q(source(kBaseline)) + " --dataset " + q(dataset) + " --out " + q(out) + " --no-progress";
+}
+
 std::vector<Case> cases() {
   std::vector<Case> c;
   // ---- pipeline YAML --------------------------------------------------------
@@ -191,8 +196,7 @@ std::vector<Case> cases() {
   c.push_back({"output folder", "`--out` is a file",
                [](const std::string& d) {
                  writeFile(d + "/afile", "x\n");
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(tinyScene()) + " --out " + q(d + "/afile") +
-                        " --no-progress";
+                 return runBaseline(tinyScene(), d + "/afile");
                },
                1, {"output folder $DIR/afile is a file, not a folder"}});
   c.push_back({"TUM rgb.txt", "timestamp that is not a number",
@@ -220,7 +224,7 @@ std::vector<Case> cases() {
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  fs::remove(nthFile(s + "/rgb", 2));
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                1, {"frame 2", "is missing"}});
   c.push_back({"TUM rgb image", "missing file, `dataset.on_bad_frame: skip`",
@@ -237,21 +241,21 @@ std::vector<Case> cases() {
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  writeFile(nthFile(s + "/rgb", 2), "not a PNG file");
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                1, {"frame 2", "cannot read image", "corrupt or unsupported image"}});
   c.push_back({"TUM rgb image", "16-bit (a depth image in rgb/)",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  fs::copy_file(nthFile(s + "/depth", 1), nthFile(s + "/rgb", 1), fs::copy_options::overwrite_existing);
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                1, {"frame 1", "is 16-bit; camera images must be 8-bit"}});
   c.push_back({"TUM depth image", "8-bit instead of 16-bit",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  fs::copy_file(nthFile(s + "/rgb", 1), nthFile(s + "/depth", 1), fs::copy_options::overwrite_existing);
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                1, {"frame 1", "is not 16-bit single channel"}});
   c.push_back({"TUM depth image", "16-bit with three channels",
@@ -261,14 +265,14 @@ std::vector<Case> cases() {
                  cv::Mat three;
                  cv::merge(std::vector<cv::Mat>{one, one, one}, three);
                  cv::imwrite(nthFile(s + "/depth", 1), three);
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                1, {"frame 1", "is not 16-bit single channel"}});
   c.push_back({"TUM depth image", "empty (every pixel 0): tracked without depth",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
                  writeZeroDepth(nthFile(s + "/depth", 3), 320, 240);
-                 return "run " + q(source(kBaseline)) + " --dataset " + q(s) + " --out " + q(d + "/out") + " --no-progress";
+                 return runBaseline(s, d + "/out");
                },
                0, {"frame 3", "has no valid depth", "tracked without depth"}, "[warn]"});
   c.push_back({"pipeline with `outputs.dense_map: true`", "RGB-D camera, but the dataset has no depth images",

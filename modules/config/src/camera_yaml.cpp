@@ -46,8 +46,7 @@ SE3 se3FromRowMajor(const std::vector<double>& v, const std::string& what) {
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 4; c++) T(r, c) = v[r * 4 + c];
   const Eigen::Matrix3d R = T.block<3, 3>(0, 0);
-  if (!T.allFinite() || !((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-2) ||
-      R.determinant() < 0)
+  if (!T.allFinite() || !isOrthonormal(R, 1e-2) || R.determinant() < 0)
     throw ConfigError(what + ": the 3x3 block is not a rotation (R^T R differs from the identity by more than 0.01, "
                              "or a reflection)");
   return SE3(T);
@@ -72,7 +71,8 @@ static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset,
   if (take("dist")) cam.dist = distFrom(p.getDoubleList("dist"), where);
   for (const char* k : {"width", "height", "fx", "fy"})  // 0 is only the "not given" default
     if (p.isGiven(k) && !(p.getDouble(k) > 0))
-      throw ConfigError(where + ": '" + k + "' must be greater than 0, got " + yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?"));
+      throw ConfigError(where + ": '" + k + "' must be greater than 0, got " +
+                        yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?"));
   if (!use_preset) {
     for (const char* k : {"width", "height", "fx", "fy", "cx", "cy"})
       if (!p.isGiven(k))

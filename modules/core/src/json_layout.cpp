@@ -83,6 +83,12 @@ std::string layoutJson(const nlohmann::ordered_json& j, int depth) { return layo
 std::string layoutJson(const nlohmann::json& j, int depth) { return layoutText(j, depth); }
 
 
+std::string jsonErrorText(const std::exception& e) {
+  std::string what = e.what();
+  if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+  return what;
+}
+
 nlohmann::json parseJsonFile(const std::string& file) {
   using json = nlohmann::json;
   std::ifstream f(file, std::ios::binary);
@@ -100,9 +106,7 @@ nlohmann::json parseJsonFile(const std::string& file) {
     if (const size_t p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
     throw DataError(file + ":" + lineColumn(text, pos) + ": invalid JSON: " + what);
   } catch (const json::exception& e) {  // e.g. out_of_range: "number overflow parsing '1e58140'"
-    std::string what = e.what();
-    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    throw DataError(file + ": invalid JSON: " + what);
+    throw DataError(file + ": invalid JSON: " + jsonErrorText(e));
   }
 }
 

@@ -93,8 +93,7 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
   octomap::OcTree tree(0.1);
   if (!tree.readBinary(bt_path)) throw DataError("cannot read OctoMap binary file " + bt_path);
   m.resolution = tree.getResolution();
-  if (!(m.resolution >= 1e-4 && m.resolution <= 100))
-  {
+  if (!(m.resolution >= 1e-4 && m.resolution <= 100)) {
     char res[32];
     std::snprintf(res, sizeof(res), "%g", m.resolution);
     throw DataError(bt_path + ": OctoMap resolution " + res + " m is outside 0.0001-100 m (not a dslam dense map?)");
@@ -130,9 +129,7 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
       m.keyframes.push_back(kf);
     }
   } catch (const json::exception& e) {
-    std::string what = e.what();  // without nlohmann's "[json.exception.out_of_range.403] "
-    if (const size_t p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    throw DataError(jp + ": " + what);
+    throw DataError(jp + ": " + jsonErrorText(e));
   }
   return m;
 }

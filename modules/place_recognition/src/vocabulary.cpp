@@ -70,6 +70,13 @@ void Vocabulary::finalize() {
   for (size_t w = 0; w < word_node_.size(); ++w) node_word_[word_node_[w]] = static_cast<int32_t>(w);
 }
 
+void Vocabulary::checkWordWeights(const std::vector<WordValue>& weights, const std::string& what) {
+  for (size_t w = 0; w < weights.size(); ++w)
+    if (!std::isfinite(weights[w]) || weights[w] < 0)
+      throw DataError(what + ": word " + std::to_string(w) + " has weight " + std::to_string(weights[w]) +
+                      " (weights are finite and >= 0)");
+}
+
 Vocabulary Vocabulary::fromTree(int k, int L, WeightingType wt, ScoringType st, const std::vector<NodeId>& parents,
                                 const std::vector<std::array<uint8_t, 32>>& descriptors,
                                 const std::vector<NodeId>& words, const std::vector<WordValue>& weights,
@@ -81,10 +88,7 @@ Vocabulary Vocabulary::fromTree(int k, int L, WeightingType wt, ScoringType st, 
     throw DataError(what + ": " + std::to_string(parents.size()) + " parents but " +
                     std::to_string(descriptors.size()) + " descriptors");
   if (words.size() != weights.size()) throw DataError(what + ": word and weight counts differ");
-  for (size_t w = 0; w < weights.size(); ++w)
-    if (!std::isfinite(weights[w]) || weights[w] < 0)
-      throw DataError(what + ": word " + std::to_string(w) + " has weight " + std::to_string(weights[w]) +
-                      " (weights are finite and >= 0)");
+  checkWordWeights(weights, what);
   if (n > 0xFFFFFFF0u) throw DataError(what + ": too many nodes");
   if (n < 2) throw DataError(what + ": the tree has no nodes");
   // Children lists (sibling order = input order) in CSR form.

@@ -1,7 +1,6 @@
 // dslam binary vocabulary: 'DSLAMVOC' header, node and word arrays,
 // 'DSLAMEND' (optionally gzip-compressed). Little-endian.
 #include <bit>
-#include <cmath>
 #include <cstring>
 #include <memory>
 
@@ -122,10 +121,7 @@ Vocabulary VocabularyIo::loadBinary(const std::string& path) {
       throw DataError(what + ": node " + std::to_string(i) + " has parent " + std::to_string(p) +
                       " (nodes must be in breadth-first order)");
   }
-  for (uint64_t w = 0; w < nw; ++w)
-    if (!std::isfinite(v.word_weight_[w]) || v.word_weight_[w] < 0)
-      throw DataError(what + ": word " + std::to_string(w) + " has weight " + std::to_string(v.word_weight_[w]) +
-                      " (weights are finite and >= 0)");
+  Vocabulary::checkWordWeights(v.word_weight_, what);
   for (uint64_t w = 0; w < nw; ++w)
     if (v.word_node_[w] == 0 || v.word_node_[w] >= n)
       throw DataError(what + ": word " + std::to_string(w) + " refers to node " + std::to_string(v.word_node_[w]));

@@ -95,7 +95,7 @@ SE3 from3x4(const std::string& path, const Line& l, size_t off) {
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 4; c++) T(r, c) = num(path, l, off + r * 4 + c);
   Eigen::Matrix3d R = T.block<3, 3>(0, 0);
-  if (!((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-2))
+  if (!isOrthonormal(R, 1e-2))
     throw DataError(path + ":" + std::to_string(l.lineno) +
                     ": the 3x3 block is not a rotation (R^T R differs from the identity by more than 0.01)");
   // Re-orthonormalise (KITTI files are printed with ~6 digits).

@@ -43,6 +43,13 @@ cv::Mat readCameraImage(const std::string& path, size_t frame, const std::string
   return m;
 }
 
+cv::Mat readDepthImage(const std::string& path, size_t frame) {
+  cv::Mat m = readImage(path, frame, "depth image", cv::IMREAD_UNCHANGED);
+  if (m.type() != CV_16UC1)
+    throw DataError("frame " + std::to_string(frame) + ": depth image " + path + " is not 16-bit single channel");
+  return m;
+}
+
 std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt) {
   if (gt.empty()) return std::nullopt;
   auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), t);

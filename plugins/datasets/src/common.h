@@ -23,6 +23,9 @@ cv::Mat readImage(const std::string& path, size_t frame, const std::string& what
 /** readImage(path, frame, what, cv::IMREAD_UNCHANGED) of a camera image:
  *  8-bit grey, colour or colour + alpha (a 16-bit image is a DataError). */
 cv::Mat readCameraImage(const std::string& path, size_t frame, const std::string& what);
+/** readImage of a depth image: 16-bit single channel (anything else, e.g. a
+ *  3-channel 16-bit PNG, is a DataError). */
+cv::Mat readDepthImage(const std::string& path, size_t frame);
 
 /** Ground-truth pose nearest to t if within max_dt (gt stamps sorted). */
 std::optional<SE3> nearestPose(const Trajectory& gt, double t, double max_dt = kGtMaxDt);

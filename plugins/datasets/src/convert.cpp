@@ -99,12 +99,9 @@ ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& o
   const float units = static_cast<float>(1.0 / cam.depth_factor);
   log::Progress prog("tum2rawlog", tum.size());
   for (size_t i = 0; i < tum.size(); i++) {
-    cv::Mat rgb = ds::readImage(tum.rgbPath(i), i, "image", cv::IMREAD_UNCHANGED);
-    if (rgb.depth() != CV_8U) throw DataError("frame " + std::to_string(i) + ": image " + tum.rgbPath(i) + " is not 8-bit");
+    cv::Mat rgb = ds::readCameraImage(tum.rgbPath(i), i, "image");
     if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_BGRA2BGR);
-    const cv::Mat depth = ds::readImage(tum.depthPath(i), i, "depth image", cv::IMREAD_UNCHANGED);
-    if (depth.type() != CV_16UC1)
-      throw DataError("frame " + std::to_string(i) + ": depth image " + tum.depthPath(i) + " is not 16-bit single channel");
+    const cv::Mat depth = ds::readDepthImage(tum.depthPath(i), i);
     if (depth.size() != rgb.size())
       throw DataError("frame " + std::to_string(i) + ": depth image " + tum.depthPath(i) + " size differs from " +
                       tum.rgbPath(i));

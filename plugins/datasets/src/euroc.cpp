@@ -105,7 +105,7 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
   for (int r = 0; r < 4; r++)
     for (int c = 0; c < 4; c++) M(r, c) = T[r * 4 + c];
   const Eigen::Matrix3d R = M.block<3, 3>(0, 0);
-  if ((R * R.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-3 || std::abs(R.determinant() - 1) > 1e-3)
+  if (!isOrthonormal(R, 1e-3) || std::abs(R.determinant() - 1) > 1e-3)
     throw DataError(file + ": 'T_BS' rotation part is not a rotation matrix");
   info.T_BS = SE3(M);
   if (const auto r = str("rate_hz"); !r.empty()) info.rate_hz = yamlu::parseDouble(r).value_or(0);

@@ -196,9 +196,7 @@ SensorFrame TumDataset::read(size_t i) {
   f.image = ds::readCameraImage(f.image_path, i, "image");
   if (!it.depth.empty()) {
     f.depth_path = resolvePath(it.depth, root_);
-    cv::Mat raw = ds::readImage(f.depth_path, i, "depth image", cv::IMREAD_UNCHANGED);
-    if (raw.type() != CV_16UC1)
-      throw DataError("frame " + std::to_string(i) + ": depth image " + f.depth_path + " is not 16-bit single channel");
+    cv::Mat raw = ds::readDepthImage(f.depth_path, i);
     if (raw.size() != f.image.size())
       throw DataError("frame " + std::to_string(i) + ": depth " + f.depth_path + " size " +
                       std::to_string(raw.cols) + "x" + std::to_string(raw.rows) + " differs from the RGB image's " +

@@ -7,6 +7,7 @@
  *  JSON file reader with file:line:column errors. */
 #include <nlohmann/json_fwd.hpp>
 
+#include <exception>
 #include <string>
 
 namespace dslam {
@@ -17,5 +18,9 @@ std::string layoutJson(const nlohmann::json& j, int depth);
 /** Reads and parses a JSON file. DataError naming the file (missing /
  *  unreadable), and for a syntax error its line:column. */
 nlohmann::json parseJsonFile(const std::string& file);
+
+/** The message of a nlohmann::json exception without its
+ *  "[json.exception.type_error.302] " prefix. */
+std::string jsonErrorText(const std::exception& e);
 
 }  // namespace dslam

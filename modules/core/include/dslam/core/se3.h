@@ -99,4 +99,11 @@ class SE3 {
   Vec3 t_;
 };
 
+/** Whether R is a rotation up to `tol` (Frobenius norm of R^T R - I; a
+ *  reflection passes: check the determinant where it matters). Rotations
+ *  read from files carry print rounding, hence the tolerance. */
+inline bool isOrthonormal(const Eigen::Matrix3d& R, double tol) {
+  return R.allFinite() && (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() <= tol;
+}
+
 }  // namespace dslam

@@ -195,6 +195,9 @@ class Vocabulary {
                              const std::string& what);
 
  private:
+  /** DataError unless every word weight is finite and >= 0 (an inf weight
+   *  scores every query nan). */
+  static void checkWordWeights(const std::vector<WordValue>& weights, const std::string& what);
   struct Desc {
     uint64_t w[4];
   };
