@@ -189,6 +189,13 @@ std::vector<Case> cases() {
                {"pipeline.yaml:2", "camera.fx", "expected a finite number"}});
   c.push_back({"camera section", "image width 0", camera("500", "0"), 1,
                {"pipeline.yaml:2", "'width' must be greater than 0"}});
+  c.push_back({"camera section", "principal point outside the image", camera("500", "120"), 1,
+               {"pipeline.yaml:2", "'cx' (160) lies outside the image", "0..width (120)"}});
+  c.push_back({"pipeline YAML", "key twice in a {...} map",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x, mode: sequential, name: y}\n"));
+               },
+               1, {"pipeline.yaml:1: key 'name' appears twice in the same {...} map"}});
   // ---- datasets -------------------------------------------------------------
   c.push_back({"dataset", "folder does not exist",
                [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },

@@ -70,6 +70,16 @@ TEST(Camera, ZeroIntrinsicsAndNonRotationsAreClearErrors) {
             std::string::npos);
   t = base;
   EXPECT_NE(errorOf(t.replace(t.find("fx: 500"), 7, "fx: .inf")).find("expected a finite number"), std::string::npos);
+  // A principal point outside the image (here cx and width swapped).
+  t = base;
+  EXPECT_NE(errorOf(t.replace(t.find("cx: 320"), 7, "cx: 640.5"))
+                .find("'cx' (640.5) lies outside the image: the principal point must be within 0..width (640)"),
+            std::string::npos);
+  t = base;
+  EXPECT_NE(errorOf(t.replace(t.find("cy: 240"), 7, "cy: -1")).find("'cy' (-1) lies outside the image"),
+            std::string::npos);
+  t = base;
+  EXPECT_EQ(errorOf(t.replace(t.find("cx: 320"), 7, "cx: 640")), "");  // on the border: allowed
   EXPECT_NE(errorOf(base + "T_body_cam: [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1]\n")
                 .find("T_body_cam: the 3x3 block is not a rotation"),
             std::string::npos);
@@ -78,10 +88,19 @@ TEST(Camera, ZeroIntrinsicsAndNonRotationsAreClearErrors) {
 
 TEST(Camera, PresetOverride) {
   const std::string d = test::tempDir("cam");
-  test::writeFile(d + "/c.yaml", "camera:\n  preset: tum_fr3\n  fx: 600\n  width: 320\n");
+  test::writeFile(d + "/c.yaml", "camera:\n  preset: tum_fr3\n  fx: 600\n  width: 752\n");
   const CameraModel c = config::loadCameraFile(d + "/c.yaml");
   EXPECT_DOUBLE_EQ(c.left.fx, 600);
-  EXPECT_EQ(c.left.width, 320);
+  EXPECT_EQ(c.left.width, 752);
   EXPECT_DOUBLE_EQ(c.left.fy, 539.2);  // kept from the preset
   EXPECT_NEAR(c.bf(), 40.0 * 600 / 535.4, 1e-9);  // baseline of the preset, new fx
+  // Half the width with the preset's principal point (320.1): not this image.
+  test::writeFile(d + "/c.yaml", "camera:\n  preset: tum_fr3\n  width: 320\n");
+  try {
+    config::loadCameraFile(d + "/c.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("'cx' (320.1, from the preset) lies outside the image"), std::string::npos)
+        << e.what();
+  }
 }

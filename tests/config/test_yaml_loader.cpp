@@ -133,6 +133,19 @@ TEST(YamlLoader, AKeyTwiceInOneMapIsAnError) {
   EXPECT_EQ(errorOf("a:\n  n: 1\nb:\n  n: 1\nl:\n  - name: x\n    n: 1\n  - name: y\n    n: 2\n"
                     "t: |\n  n: 1\n  n: 2\n"),
             "");
+  // Flow maps {...}, also over several lines and inside lists.
+  EXPECT_NE(errorOf("params: {classes: [1], classes: [2]}\n")
+                .find("t.yaml:1: key 'classes' appears twice in the same {...} map"),
+            std::string::npos);
+  EXPECT_NE(errorOf("p:\n  - {a: 1,\n     b: 2, \"a\": 3}\n").find("t.yaml:3: key 'a' appears twice in the same {...} map "
+                                                              "(first on line 2)"),
+            std::string::npos);
+  EXPECT_NE(errorOf("p: [{a: 1}, {b: {c: 1, c: 2}}]\n").find("key 'c'"), std::string::npos);
+  // Sibling flow maps, a comma or colon inside quotes, an apostrophe in a
+  // plain scalar and ${ENV|default} values are fine.
+  EXPECT_EQ(errorOf("p: [{a: 1}, {a: 2}]\nq: {a: {n: 1}, b: {n: 2}}\nr: {s: \"x, a: 2\", a: 1}\n"
+                    "u: {s: don't, a: 1}\nv: {a: ${X|1}, b: ${X|1}}\nw: {a: 1,\n   b: 2}\nx: {a: 1}\n"),
+            "");
 }
 
 TEST(YamlLoader, NoShellExecution) {

@@ -52,7 +52,9 @@ inline void writeImage(const std::string& path, const cv::Mat& m) {
  *  associate.py pairs 4 of them (1.066 has no depth within 0.02 s). */
 struct TinyTum {
   std::string dir;
-  explicit TinyTum(const std::string& name = "rgbd_dataset_freiburg2_tiny") {
+  /** `size`: of the images (8x6; the full 640x480 where the TUM intrinsics
+   *  must fit them, as in a camera.yaml written back). */
+  explicit TinyTum(const std::string& name = "rgbd_dataset_freiburg2_tiny", cv::Size size = {8, 6}) {
     dir = tempDir("tum") + "/" + name;
     mkdirs(dir + "/rgb");
     mkdirs(dir + "/depth");
@@ -62,10 +64,10 @@ struct TinyTum {
     fr << "# color images\n# timestamp filename\n";
     fd << "# depth maps\n";
     for (int i = 0; i < 5; i++) {
-      cv::Mat im(6, 8, CV_8UC3, cv::Scalar(10 * i, 20, 30));
+      cv::Mat im(size, CV_8UC3, cv::Scalar(10 * i, 20, 30));
       writeImage(dir + "/rgb/" + rgb[i] + ".png", im);
       fr << rgb[i] << " rgb/" << rgb[i] << ".png\n";
-      cv::Mat d(6, 8, CV_16UC1, cv::Scalar(5000 + i));
+      cv::Mat d(size, CV_16UC1, cv::Scalar(5000 + i));
       d.at<uint16_t>(0, 0) = 0;
       d.at<uint16_t>(1, 1) = 65535;
       d.at<uint16_t>(2, 2) = 5000;

@@ -80,7 +80,7 @@ TEST(DatasetsCli, InfoErrors) {
 }
 
 TEST(DatasetsCli, ConvertRoundTrip) {
-  TinyTum t;
+  TinyTum t("rgbd_dataset_freiburg2_tiny", {640, 480});
   const std::string dir = tempDir("cli_convert");
   expectRun("convert tum2rawlog " + t.dir + " " + dir + "/a.rawlog --preset tum_fr1 --label KINECT", 0,
             {"4 CObservation3DRangeScan, sensor 'KINECT', depth factor 5000"});

@@ -192,6 +192,10 @@ TEST(EurocDataset, BadInputs) {
                     [&] { t.open(); }, {"equidistant"});
     expectOpenError(t.dir + "/mav0/cam0/sensor.yaml", sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1"), [&] { t.open(); },
                     {"T_BS", "16 values"});
+    std::string y = sensorYaml("1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1");
+    y.replace(y.find("[100, 101, 8, 6]"), 16, "[100, 101, 8, 60]");  // cv = 60 in a 16x12 image
+    expectOpenError(t.dir + "/mav0/cam0/sensor.yaml", y, [&] { t.open(); },
+                    {"sensor.yaml: 'intrinsics' principal point (8, 60) lies outside the 16x12 image"});
   }
   {
     TinyEuroc t;

@@ -147,6 +147,10 @@ TEST(KittiDataset, BadInputs) {
     TinyKitti k;
     expectOpenError(k.dir + "/calib.txt", "P0: 500 0 15 0 0 501 10 0 0 0 1\n", [&] { k.open(); },
                     {"calib.txt:1", "11 numbers"});
+    // cx = 150 in 30x20 images: a typo, not a calibration.
+    expectOpenError(k.dir + "/calib.txt",
+                    "P0: 500 0 150 0 0 501 10 0 0 0 1 0\nP1: 500 0 150 -250 0 501 10 0 0 0 1 0\n", [&] { k.open(); },
+                    {"calib.txt: matrix P0 puts the principal point (150, 10) outside the 30x20 images"});
   }
   {
     TinyKitti k;

@@ -2,8 +2,10 @@
 
 #include <mrpt/containers/yaml.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
+#include <tuple>
 
 #include "dslam/config/yaml_loader.h"
 #include "dslam/core/camera_presets.h"
@@ -60,6 +62,12 @@ static std::array<double, 5> distFrom(const std::vector<double>& d, const std::s
   return a;
 }
 
+static std::string shortNumber(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
 static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset, const std::string& where) {
   auto take = [&](const char* k) { return !use_preset || p.isGiven(k); };
   if (take("width")) cam.width = static_cast<int>(p.getInt("width"));
@@ -73,6 +81,15 @@ static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset,
     if (p.isGiven(k) && !(p.getDouble(k) > 0))
       throw ConfigError(where + ": '" + k + "' must be greater than 0, got " +
                         yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?"));
+  if (cam.width > 0 && cam.height > 0 && !cam.principalPointInside())
+    for (const auto& [k, v, side, side_name] : {std::tuple{"cx", cam.cx, cam.width, "width"},
+                                                std::tuple{"cy", cam.cy, cam.height, "height"}})
+      if (!(v >= 0 && v <= side))
+        throw ConfigError(where + ": '" + k + "' (" +
+                          (p.isGiven(k) ? yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?")
+                                        : shortNumber(v) + ", from the preset") +
+                          ") lies outside the image: the principal point must be within 0.." + side_name + " (" +
+                          std::to_string(side) + ") pixels");
   if (!use_preset) {
     for (const char* k : {"width", "height", "fx", "fy", "cx", "cy"})
       if (!p.isGiven(k))

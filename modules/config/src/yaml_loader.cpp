@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <cctype>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -304,9 +305,88 @@ size_t fillEmptyValues(std::string& text) {
   return filled;
 }
 
+/** The keys of flow mappings ({a: 1, b: [2, 3]}), which may span lines:
+ *  fed line by line (comments removed), throws on a key written twice in
+ *  one of them. */
+class FlowKeys {
+ public:
+  explicit FlowKeys(const std::string& file) : file_(file) {}
+  bool inside() const { return !stack_.empty(); }
+
+  /** Scans `c` (line `line`) from `from`, which is inside a flow collection
+   *  or at the '{' / '[' that opens one. */
+  void scan(const std::string& c, size_t from, size_t line) {
+    for (size_t i = from; i < c.size(); i++) {
+      const char ch = c[i];
+      if (stack_.empty()) return;  // the collection closed; the rest is no flow
+      Ctx& t = stack_.back();
+      const char before = last_;
+      if (ch != ' ' && ch != '\t') last_ = ch;
+      if ((ch == '"' || ch == '\'') && std::strchr("{[,:", before)) {  // a quoted scalar: its text, without the quotes
+        const size_t close = c.find(ch, i + 1);
+        const size_t end = close == std::string::npos ? c.size() : close;
+        if (t.map && t.in_key) t.key += c.substr(i + 1, end - i - 1);
+        i = end;
+      } else if (ch == '{' || ch == '[') {
+        stack_.push_back({ch == '{', true, {}, {}});
+      } else if (ch == '}' || ch == ']') {
+        endEntry(line);
+        stack_.pop_back();
+      } else if (ch == ',') {
+        endEntry(line);
+      } else if (ch == ':' && t.map && t.in_key && (i + 1 == c.size() || std::strchr(" ,}]", c[i + 1]))) {
+        addKey(line);
+        t.in_key = false;
+      } else if (t.map && t.in_key) {
+        t.key += ch;
+      }
+    }
+    if (!stack_.empty() && stack_.back().map && stack_.back().in_key) stack_.back().key += ' ';  // the line break
+  }
+
+  /** Starts scanning at `from` when a flow collection opens there. */
+  void start(const std::string& c, size_t from, size_t line) {
+    if (from < c.size() && (c[from] == '{' || c[from] == '[')) {
+      last_ = c[from];
+      stack_.push_back({c[from] == '{', true, {}, {}});
+      scan(c, from + 1, line);
+    }
+  }
+
+ private:
+  struct Ctx {
+    bool map;
+    bool in_key;                           ///< reading a key (before its ':')
+    std::string key;                       ///< the key read so far
+    std::map<std::string, size_t> keys;    ///< key -> line
+  };
+  void addKey(size_t line) {
+    Ctx& t = stack_.back();
+    const size_t b = t.key.find_first_not_of(' ');
+    const std::string key = b == std::string::npos ? "" : t.key.substr(b, t.key.find_last_not_of(' ') - b + 1);
+    t.key.clear();
+    if (key.empty()) return;
+    auto [it, fresh] = t.keys.emplace(key, line);
+    if (!fresh)
+      throw ConfigError(file_ + ":" + std::to_string(line) + ": key '" + key + "' appears twice in the same {...} map" +
+                        (it->second == line ? "" : " (first on line " + std::to_string(it->second) + ")") +
+                        "; YAML would keep only the last one");
+  }
+  /** ',' or the closing bracket: an entry without ':' ({a, b}) is a key too. */
+  void endEntry(size_t line) {
+    Ctx& t = stack_.back();
+    if (t.map && t.in_key) addKey(line);
+    t.in_key = true;
+    t.key.clear();
+  }
+  std::string file_;
+  std::vector<Ctx> stack_;
+  char last_ = '{';  ///< the last character other than a space: a quote after one of {[,: opens a quoted scalar
+};
+
 /** YAML forbids a key twice in one mapping, and MRPT's parser silently keeps
  *  the last one: `pipeline:` written twice ran the second. Block mappings
- *  only (flow mappings {a: 1, a: 2} are not checked). */
+ *  and flow mappings ({a: 1, a: 2}). */
 void checkDuplicateKeys(const std::string& text, const std::string& file) {
   struct Level {
     size_t column;
@@ -315,9 +395,14 @@ void checkDuplicateKeys(const std::string& text, const std::string& file) {
   std::vector<Level> stack;
   const std::vector<std::string> lines = splitLines(text);
   size_t block_indent = std::string::npos;
+  FlowKeys flow(file);
   for (size_t i = 0; i < lines.size(); i++) {
     const std::string c = lineContent(lines[i]);
     const size_t ind = c.find_first_not_of(' ');
+    if (flow.inside()) {  // a line inside a flow collection opened above
+      flow.scan(c, 0, i + 1);
+      continue;
+    }
     if (ind == std::string::npos || c.compare(ind, 3, "---") == 0 || c.compare(ind, 3, "...") == 0) continue;
     if (block_indent != std::string::npos) {
       if (ind > block_indent) continue;
@@ -328,6 +413,7 @@ void checkDuplicateKeys(const std::string& text, const std::string& file) {
     while (!stack.empty() && (stack.back().column > col || (item && stack.back().column >= col))) stack.pop_back();
     if (startsBlockScalar(c)) block_indent = ind;
     const std::string key = mappingKey(c, col);
+    flow.start(c, key.empty() ? col : c.find_first_not_of(' ', col + key.size() + 1), i + 1);
     if (key.empty()) continue;
     if (stack.empty() || stack.back().column != col) stack.push_back({col, {}});
     auto [it, fresh] = stack.back().keys.emplace(key, i + 1);

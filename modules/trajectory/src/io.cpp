@@ -12,6 +12,7 @@
 #include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
+#include "dslam/core/text_lines.h"
 #include "dslam/core/yaml_util.h"
 
 namespace dslam::traj {
@@ -41,33 +42,11 @@ struct Line {
   std::vector<std::string> fields;
 };
 
-/** Splits data lines on whitespace and/or commas; '#' starts a comment
+/** Data lines split on whitespace and/or commas; '#' starts a comment
  *  anywhere; blank and comment-only lines are skipped. */
 std::vector<Line> readLines(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw DataError("cannot open trajectory file: " + path);
   std::vector<Line> out;
-  std::string s;
-  int n = 0;
-  while (std::getline(f, s)) {
-    n++;
-    if (n == 1 && s.compare(0, 3, "\xEF\xBB\xBF") == 0) s.erase(0, 3);  // UTF-8 byte-order mark (Windows editors)
-    if (const size_t hash = s.find('#'); hash != std::string::npos) s.erase(hash);
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    if (s.find_first_not_of(" \t\r") == std::string::npos) continue;
-    Line l{n, {}};
-    std::string tok;
-    for (char c : s) {
-      if (c == ' ' || c == '\t' || c == ',' || c == '\r') {
-        if (!tok.empty()) l.fields.push_back(tok);
-        tok.clear();
-      } else {
-        tok += c;
-      }
-    }
-    if (!tok.empty()) l.fields.push_back(tok);
-    out.push_back(std::move(l));
-  }
+  for (auto& l : readDataLines(path, "trajectory file", true)) out.push_back({l.lineno, splitFields(l.text, true)});
   return out;
 }
 

@@ -86,38 +86,6 @@ void requireIncreasing(const std::vector<double>& s, const std::string& where) {
                       " after " + fmtStamp(s[i - 1]) + " (frame " + std::to_string(i - 1) + ")");
 }
 
-std::vector<TextLine> readDataLines(const std::string& file, const std::string& hint) {
-  std::ifstream f(file);
-  if (!f) throw DataError("cannot open " + file + (hint.empty() ? "" : " (" + hint + ")"));
-  std::vector<TextLine> out;
-  std::string s;
-  int n = 0;
-  while (std::getline(f, s)) {
-    n++;
-    if (n == 1 && s.compare(0, 3, "\xEF\xBB\xBF") == 0) s.erase(0, 3);  // UTF-8 byte-order mark (Windows editors)
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    const size_t p = s.find_first_not_of(" \t");
-    if (p == std::string::npos || s[p] == '#') continue;
-    out.push_back({n, s});
-  }
-  return out;
-}
-
-std::vector<std::string> splitFields(const std::string& s, bool commas) {
-  std::vector<std::string> out;
-  std::string tok;
-  for (char c : s) {
-    if (c == ' ' || c == '\t' || (commas && c == ',')) {
-      if (!tok.empty()) out.push_back(tok);
-      tok.clear();
-    } else {
-      tok += c;
-    }
-  }
-  if (!tok.empty()) out.push_back(tok);
-  return out;
-}
-
 std::vector<std::string> listFiles(const std::string& dir, const std::string& ext) {
   std::vector<std::string> out;
   std::error_code ec;
@@ -130,6 +98,12 @@ std::vector<std::string> listFiles(const std::string& dir, const std::string& ex
 std::string fmtStamp(double t) {
   char b[64];
   std::snprintf(b, sizeof b, "%.6f", t);
+  return b;
+}
+
+std::string fmtNumber(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%g", v);
   return b;
 }
 

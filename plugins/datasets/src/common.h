@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dslam/core/se3.h"
+#include "dslam/core/text_lines.h"
 #include "dslam/core/trajectory.h"
 
 namespace dslam::ds {
@@ -79,21 +80,14 @@ void requireFrameIndex(size_t i, size_t n);
 /** Throws DataError("<where>: timestamps must increase ...") unless strictly increasing. */
 void requireIncreasing(const std::vector<double>& stamps, const std::string& where);
 
-/** Lines of a text file without '\r', with their 1-based numbers; skips
- *  blank lines and '#' comments. Throws DataError if it cannot be opened. */
-struct TextLine {
-  int lineno;
-  std::string text;
-};
-std::vector<TextLine> readDataLines(const std::string& file, const std::string& hint = "");
 
-/** Splits on spaces, tabs and (if `commas`) commas; drops empty fields. */
-std::vector<std::string> splitFields(const std::string& s, bool commas = false);
 
 /** Files with extension `ext` (".png") in a folder, sorted by name. */
 std::vector<std::string> listFiles(const std::string& dir, const std::string& ext);
 
 /** "%.6f" */
 std::string fmtStamp(double t);
+/** A number in messages, shortest form (%g). */
+std::string fmtNumber(double v);
 
 }  // namespace dslam::ds

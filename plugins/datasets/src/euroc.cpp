@@ -97,6 +97,10 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
     throw DataError(file + ": 'resolution' must be [width, height], whole numbers of pixels in 1..65535");
   info.cam.width = static_cast<int>(res[0]);
   info.cam.height = static_cast<int>(res[1]);
+  if (!info.cam.principalPointInside())
+    throw DataError(file + ": 'intrinsics' principal point (" + ds::fmtNumber(info.cam.cx) + ", " + ds::fmtNumber(info.cam.cy) +
+                    ") lies outside the " + std::to_string(info.cam.width) + "x" + std::to_string(info.cam.height) +
+                    " image of 'resolution'");
   const node_t* tn = yamlu::findValue(root, "T_BS");
   if (!tn) throw DataError(file + ": missing key 'T_BS' (" + kEurocLayout + ")");
   const auto T = numbers(tn->isMap() ? yamlu::findValue(*tn, "data") : tn, file, "T_BS.data");
@@ -116,8 +120,8 @@ std::vector<EurocImageEntry> readEurocImageList(const std::string& cam_dir) {
   std::vector<EurocImageEntry> out;
   const std::string csv = cam_dir + "/data.csv";
   if (fileExists(csv)) {
-    for (const auto& l : ds::readDataLines(csv, kEurocLayout)) {
-      const auto f = ds::splitFields(l.text, true);
+    for (const auto& l : readDataLines(csv, kEurocLayout)) {
+      const auto f = splitFields(l.text, true);
       const auto t = f.size() >= 2 ? yamlu::parseInt(f[0]) : std::nullopt;
       if (!t)
         throw DataError(csv + ":" + std::to_string(l.lineno) + ": expected \"timestamp_ns,filename\", got '" + l.text +

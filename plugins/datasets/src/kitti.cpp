@@ -31,8 +31,8 @@ KittiCalib readKittiCalib(const std::string& file) {
   static const char* kOrder[] = {"P0", "P1", "P2", "P3", "Tr"};
   KittiCalib c;
   size_t unlabelled = 0;
-  for (const auto& l : ds::readDataLines(file, kKittiLayout)) {
-    auto f = ds::splitFields(l.text);
+  for (const auto& l : readDataLines(file, kKittiLayout)) {
+    auto f = splitFields(l.text);
     std::string name;
     if (!f.empty() && f[0].back() == ':') {
       name = f[0].substr(0, f[0].size() - 1);
@@ -84,8 +84,8 @@ std::vector<double> kittiTimes(const Params& p, const std::string& root, size_t 
   const std::string times = p.getString("times");
   const std::string tf = times.empty() ? "" : resolvePath(times, root);
   if (!tf.empty() && fileExists(tf)) {
-    for (const auto& l : ds::readDataLines(tf)) {
-      const auto f = ds::splitFields(l.text);
+    for (const auto& l : readDataLines(tf)) {
+      const auto f = splitFields(l.text);
       const auto t = f.size() == 1 ? yamlu::parseDouble(f[0]) : std::nullopt;
       if (!t) throw DataError(tf + ":" + std::to_string(l.lineno) + ": expected one time in seconds, got '" + l.text + "'");
       stamps.push_back(*t);
@@ -132,6 +132,10 @@ CameraModel kittiCamera(const std::string& cf, const std::string& pl, const std:
     cam.left.height = im.rows;
   }
   if (cam.left.width == 0) throw DataError("KITTI: cannot read any of the first images in " + left_dir);
+  if (!cam.left.principalPointInside())
+    throw DataError(cf + ": matrix " + pl + " puts the principal point (" + ds::fmtNumber(cam.left.cx) + ", " +
+                    ds::fmtNumber(cam.left.cy) + ") outside the " + std::to_string(cam.left.width) + "x" +
+                    std::to_string(cam.left.height) + " images of " + left_dir);
   cam.right = cam.left;
   cam.T_left_right = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(cam.baseline, 0, 0));
   cam.rectified = true;

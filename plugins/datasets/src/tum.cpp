@@ -31,7 +31,7 @@ static const char* kTumLayout =
 namespace {
 
 /** A finite timestamp in field 0, or a DataError naming file:line. */
-double stampField(const std::string& file, const ds::TextLine& l, const std::string& field, const char* expected) {
+double stampField(const std::string& file, const TextLine& l, const std::string& field, const char* expected) {
   const auto t = yamlu::parseDouble(field);
   if (!t || !std::isfinite(*t))
     throw DataError(file + ":" + std::to_string(l.lineno) + ": expected " + expected + ", got '" + l.text + "'");
@@ -45,8 +45,8 @@ std::vector<TumEntry> readTumList(const std::string& file) {
   // fields is skipped, the list is a dict keyed by time (last line wins), sorted.
   std::vector<TumEntry> out;
   size_t skipped = 0;
-  for (const auto& l : ds::readDataLines(file, kTumLayout)) {
-    const auto f = ds::splitFields(l.text, true);
+  for (const auto& l : readDataLines(file, kTumLayout)) {
+    const auto f = splitFields(l.text, true);
     if (f.size() < 2) {  // a bare timestamp: nothing to read
       if (!f.empty()) stampField(file, l, f[0], "\"timestamp path\"");
       skipped++;
@@ -62,8 +62,8 @@ std::vector<TumEntry> readTumList(const std::string& file) {
 
 std::vector<TumAssociation> readTumAssociations(const std::string& file) {
   std::vector<TumAssociation> out;
-  for (const auto& l : ds::readDataLines(file, kTumLayout)) {
-    const auto f = ds::splitFields(l.text, true);
+  for (const auto& l : readDataLines(file, kTumLayout)) {
+    const auto f = splitFields(l.text, true);
     const char* expected = "\"t_rgb rgb t_depth depth\"";
     if (f.size() < 4) throw DataError(file + ":" + std::to_string(l.lineno) + ": expected " + expected + ", got '" + l.text + "'");
     out.push_back({stampField(file, l, f[0], expected), stampField(file, l, f[2], expected), f[1], f[3]});

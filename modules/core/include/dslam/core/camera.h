@@ -22,6 +22,10 @@ struct PinholeCamera {
   std::array<double, 5> dist{0, 0, 0, 0, 0};  ///< k1 k2 p1 p2 k3
 
   bool valid() const { return width > 0 && height > 0 && fx > 0 && fy > 0; }
+  /** Whether (cx, cy) lies in the image (borders included). Outside, the
+   *  calibration is wrong (a typo, cx/cy swapped with width/height): every
+   *  camera of a SLAM dataset has it near the centre. */
+  bool principalPointInside() const { return cx >= 0 && cx <= width && cy >= 0 && cy <= height; }
   bool hasDistortion() const {
     for (double d : dist)
       if (d != 0.0) return true;
