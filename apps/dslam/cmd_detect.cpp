@@ -19,6 +19,7 @@
 #include "dslam/core/coco.h"
 #include "dslam/core/detector.h"
 #include "dslam/core/error.h"
+#include "dslam/core/png.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/registry.h"
 #include "dslam/core/timing.h"
@@ -145,9 +146,11 @@ void setup(CLI::App& sub) {
       SensorFrame f;
       f.index = int(i);
       f.image_path = o.images[i];
-      f.image = cv::imread(f.image_path, cv::IMREAD_COLOR);
+      std::string damage;
+      f.image = readImageFile(f.image_path, cv::IMREAD_COLOR, &damage);
       if (f.image.empty())
-        throw DataError("cannot read image " + f.image_path + (fileExists(f.image_path) ? " (corrupt or unsupported)" : " (missing)"));
+        throw DataError("cannot read image " + f.image_path +
+                        (fileExists(f.image_path) ? " (" + unreadableImageReason(damage) + ")" : " (missing)"));
       std::vector<double> ms;
       Detections d;
       for (int r = 0; r < o.repeat; r++) {

@@ -17,6 +17,7 @@
 #include "dslam/config/pipeline.h"
 #include "dslam/core/dataset.h"
 #include "dslam/core/error.h"
+#include "dslam/core/png.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/registry.h"
@@ -73,8 +74,9 @@ std::vector<std::string> listImages(const std::string& dir, bool recursive) {
 /** 8-bit grey image; empty for a 16-bit or float file (a depth map) if
  *  `skip_non8bit`, an error otherwise. */
 cv::Mat readGray(const std::string& path, bool skip_non8bit = false) {
-  cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (img.empty()) throw DataError("cannot read image " + path);
+  std::string damage;
+  cv::Mat img = readImageFile(path, cv::IMREAD_UNCHANGED, &damage);
+  if (img.empty()) throw DataError("cannot read image " + path + " (" + unreadableImageReason(damage) + ")");
   if (img.depth() != CV_8U) {
     if (skip_non8bit) return cv::Mat();
     throw DataError("image " + path + " is not 8-bit");

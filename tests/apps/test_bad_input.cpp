@@ -251,6 +251,24 @@ std::vector<Case> cases() {
                  return runBaseline(s, d + "/out");
                },
                1, {"frame 2", "cannot read image", "corrupt or unsupported image"}});
+  // Damaged PNGs are found by dslam's own decoder: one message, no libpng line before it.
+  c.push_back({"TUM rgb image", "PNG with one byte of its image data changed",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 std::string png = readFile(nthFile(s + "/rgb", 2));
+                 png[png.find("IDAT") + 100] ^= 0x55;
+                 writeFile(nthFile(s + "/rgb", 2), png);
+                 return runBaseline(s, d + "/out");
+               },
+               1, {"frame 2", "cannot read image", "(corrupt PNG: CRC error in chunk IDAT at byte"}});
+  c.push_back({"TUM depth image", "PNG cut in half",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 const std::string png = readFile(nthFile(s + "/depth", 3));
+                 writeFile(nthFile(s + "/depth", 3), png.substr(0, png.size() / 2));
+                 return runBaseline(s, d + "/out");
+               },
+               1, {"frame 3", "cannot read depth image", "(corrupt PNG: truncated: chunk IDAT"}});
   c.push_back({"TUM rgb image", "16-bit (a depth image in rgb/)",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
@@ -576,7 +594,7 @@ TEST(BadInput, EveryCaseGivesItsMessageAndDocsErrorsIsCurrent) {
       EXPECT_NE(msg.find(want), std::string::npos) << "'" << want << "' not in: " << msg;
     }
     // No crash, no stack trace, no exception dump.
-    for (const char* bad : {"terminate called", "Segmentation", "MRPT exception", "Aborted", "backtrace"})
+    for (const char* bad : {"terminate called", "Segmentation", "MRPT exception", "Aborted", "backtrace", "libpng"})
       EXPECT_EQ(r.out.find(bad), std::string::npos) << bad << " in:\n" << r.out;
     md << "| " << mdCell(c.input) << " | " << mdCell(c.wrong) << " | `dslam " << mdCell(normalize(args, dir))
        << "` | `" << mdCell(normalize(msg, dir)) << "` | " << r.exit_code << " |\n";

@@ -144,3 +144,48 @@ TEST(Png, DeclinesWhatItDoesNotHandleAndReadImageFileFallsBack) {
   test::writeFile(dir + "/flip.png", bytes);
   EXPECT_TRUE(readPngFast(dir + "/flip.png", cv::IMREAD_UNCHANGED).empty());
 }
+
+TEST(Png, DamagedFilesSayWhyAndAreNotPassedToLibpng) {
+  // cv::imread fails on them too, but its libpng prints "libpng error: ..."
+  // to stderr first: readImageFile keeps them from it.
+  const std::string dir = test::tempDir("png_damaged");
+  const cv::Mat grey = testImage(CV_8UC1, 3);
+  ASSERT_TRUE(cv::imwrite(dir + "/g.png", grey));
+  const std::string good = test::readFile(dir + "/g.png");
+  const size_t idat = good.find("IDAT") - 4;  // the chunk starts with its length
+  auto damageOf = [&](const std::string& name, const std::string& bytes) {
+    test::writeFile(dir + "/" + name, bytes);
+    std::string fast, file;
+    EXPECT_TRUE(readPngFast(dir + "/" + name, cv::IMREAD_UNCHANGED, &fast).empty());
+    testing::internal::CaptureStderr();
+    EXPECT_TRUE(readImageFile(dir + "/" + name, cv::IMREAD_UNCHANGED, &file).empty());
+    EXPECT_EQ(testing::internal::GetCapturedStderr(), "") << name;
+    EXPECT_EQ(fast, file);
+    return file;
+  };
+  std::string flip = good;
+  flip[idat + 30] = static_cast<char>(flip[idat + 30] ^ 0x5a);
+  EXPECT_EQ(damageOf("flip.png", flip), "CRC error in chunk IDAT at byte " + std::to_string(idat));
+  EXPECT_EQ(damageOf("half.png", good.substr(0, idat + 20)).rfind("truncated: chunk IDAT of ", 0), 0u);
+  EXPECT_EQ(damageOf("noend.png", good.substr(0, good.size() - 12)), "truncated: the file ends without an IEND chunk");
+  // Image data that does not inflate, the chunk's CRC made to match.
+  std::string bad = good;
+  const uint32_t len = (uint32_t(uint8_t(bad[idat])) << 24) | (uint32_t(uint8_t(bad[idat + 1])) << 16) |
+                       (uint32_t(uint8_t(bad[idat + 2])) << 8) | uint8_t(bad[idat + 3]);
+  for (uint32_t i = 2; i < len; i++) bad[idat + 8 + i] = static_cast<char>(0xff);
+  uint32_t crc = 0xffffffffu;  // CRC-32 of type and data (PNG, zlib polynomial)
+  for (uint32_t i = 0; i < len + 4; i++) {
+    crc ^= uint8_t(bad[idat + 4 + i]);
+    for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  crc ^= 0xffffffffu;
+  for (int k = 0; k < 4; k++) bad[idat + 8 + len + k] = static_cast<char>(crc >> (24 - 8 * k));
+  EXPECT_EQ(damageOf("inflate.png", bad), "the image data (IDAT) is not a valid zlib stream");
+  // The good file still reads; a missing file or one that is not a PNG is not "damaged".
+  EXPECT_TRUE(identical(readImageFile(dir + "/g.png", cv::IMREAD_UNCHANGED), grey));
+  std::string why = "x";
+  EXPECT_TRUE(readImageFile(dir + "/none.png", cv::IMREAD_UNCHANGED, &why).empty());
+  EXPECT_EQ(why, "");
+  EXPECT_EQ(unreadableImageReason(""), "corrupt or unsupported image");
+  EXPECT_EQ(unreadableImageReason("CRC error"), "corrupt PNG: CRC error");
+}

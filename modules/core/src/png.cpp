@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cctype>
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -78,8 +79,20 @@ bool unfilter(int type, unsigned char* c, const unsigned char* p, size_t row, si
 
 }  // namespace
 
-cv::Mat readPngFast(const std::string& path, int flags) {
+cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
   thread_local std::vector<unsigned char> file, idat, raw;
+  if (damage) damage->clear();
+  // A damaged PNG (libpng would fail on it too, after printing its own
+  // "libpng error: ..." line): says why and returns nothing.
+  auto damaged = [&](const std::string& why) {
+    if (damage) *damage = why;
+    return cv::Mat();
+  };
+  auto chunkName = [](const unsigned char* t) {
+    std::string n;
+    for (int i = 0; i < 4; i++) n += std::isalpha(t[i]) ? static_cast<char>(t[i]) : '?';
+    return n;
+  };
   if (!readFile(path, file)) return {};
   static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (file.size() < 8 + 25 || std::memcmp(file.data(), kSig, 8) != 0) return {};
@@ -92,10 +105,16 @@ cv::Mat readPngFast(const std::string& path, int flags) {
   idat.clear();
   for (size_t pos = 8; pos + 12 <= file.size();) {
     const uint32_t len = be32(&file[pos]);
-    if (len > file.size() - pos - 12) return {};
     const unsigned char* type = &file[pos + 4];
+    if (len > file.size() - pos - 12)
+      return damaged("truncated: chunk " + chunkName(type) + " of " + std::to_string(len) + " bytes at byte " +
+                     std::to_string(pos) + " runs past the end of the file (" + std::to_string(file.size()) +
+                     " bytes)");
     const unsigned char* data = type + 4;
-    if (libdeflate_crc32(0, type, len + 4) != be32(data + len)) return {};
+    if (libdeflate_crc32(0, type, len + 4) != be32(data + len)) {
+      if (!(type[0] & 0x20)) return damaged("CRC error in chunk " + chunkName(type) + " at byte " + std::to_string(pos));
+      return {};  // an ancillary chunk: libpng drops it with a warning
+    }
     const std::string t(reinterpret_cast<const char*>(type), 4);
     if (pos == 8) {
       if (t != "IHDR" || len != 13) return {};
@@ -114,6 +133,7 @@ cv::Mat readPngFast(const std::string& path, int flags) {
     }
     pos += 12 + size_t(len);
   }
+  if (!ended && w != 0) return damaged("truncated: the file ends without an IEND chunk");
   const int channels = color == 0 ? 1 : color == 2 ? 3 : color == 6 ? 4 : 0;
   if (!ended || w == 0 || h == 0 || uint64_t(w) * h > (uint64_t(1) << 28) || channels == 0) return {};
   if (depth != 8 && !(depth == 16 && channels == 1)) return {};
@@ -127,10 +147,11 @@ cv::Mat readPngFast(const std::string& path, int flags) {
   thread_local std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> inflater(
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
   size_t got = 0;
-  if (!inflater || libdeflate_zlib_decompress(inflater.get(), idat.data(), idat.size(), raw.data(), raw.size(),
-                                              &got) != LIBDEFLATE_SUCCESS ||
-      got != raw.size())
-    return {};
+  if (!inflater) return {};
+  const libdeflate_result r =
+      libdeflate_zlib_decompress(inflater.get(), idat.data(), idat.size(), raw.data(), raw.size(), &got);
+  if (r == LIBDEFLATE_BAD_DATA) return damaged("the image data (IDAT) is not a valid zlib stream");
+  if (r != LIBDEFLATE_SUCCESS || got != raw.size()) return {};
 
   cv::Mat out(static_cast<int>(h), static_cast<int>(w), CV_MAKETYPE(depth == 8 ? CV_8U : CV_16U, channels));
   const std::vector<unsigned char> zeros(row, 0);
@@ -161,9 +182,15 @@ cv::Mat readPngFast(const std::string& path, int flags) {
   return out;
 }
 
-cv::Mat readImageFile(const std::string& path, int flags) {
-  cv::Mat m = readPngFast(path, flags);
-  return m.empty() ? cv::imread(path, flags) : m;
+cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
+  std::string why;
+  cv::Mat m = readPngFast(path, flags, &why);
+  if (damage) *damage = why;
+  return m.empty() && why.empty() ? cv::imread(path, flags) : m;
+}
+
+std::string unreadableImageReason(const std::string& damage) {
+  return damage.empty() ? "corrupt or unsupported image" : "corrupt PNG: " + damage;
 }
 
 }  // namespace dslam

@@ -431,9 +431,11 @@ bool placesSeenAfter(const Scene& scene, std::vector<GtObjectResult>& gt) {
     }
   for (int f = first; f < scene.frames && !places.empty(); f++) {
     const std::string file = (fs::path(scene.dir) / d.files[static_cast<size_t>(f)]).string();
-    const cv::Mat depth = readImageFile(file, cv::IMREAD_UNCHANGED);
+    std::string damage;
+    const cv::Mat depth = readImageFile(file, cv::IMREAD_UNCHANGED, &damage);
     if (depth.empty() || depth.type() != CV_16UC1)
-      throw DataError(file + ": not a 16-bit depth map (depth.txt of the scene, frame " + std::to_string(f) + ")");
+      throw DataError(file + ": " + (damage.empty() ? "not a 16-bit depth map" : "corrupt PNG: " + damage) +
+                      " (depth.txt of the scene, frame " + std::to_string(f) + ")");
     const SE3 T_cw = scene.gt.poses[static_cast<size_t>(f)].inverse();
     for (Samples& s : places) {
       if (f <= s.place->left_at) continue;

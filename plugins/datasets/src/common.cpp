@@ -19,9 +19,10 @@ namespace dslam::ds {
 
 cv::Mat readImage(const std::string& path, size_t frame, const std::string& what, int flags) {
   cv::Mat m;
+  std::string damage;
   if (fileExists(path)) {
     try {
-      m = readImageFile(path, flags);  // PNG through the fast decoder (dslam/core/png.h)
+      m = readImageFile(path, flags, &damage);  // PNG through the fast decoder (dslam/core/png.h)
     } catch (const cv::Exception& e) {
       // e.what() is several lines ("OpenCV(4.6.0) file:line: error: ..."); the condition and function are enough.
       throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path + " (OpenCV: " + e.err +
@@ -29,7 +30,7 @@ cv::Mat readImage(const std::string& path, size_t frame, const std::string& what
     }
     if (m.empty())
       throw DataError("frame " + std::to_string(frame) + ": cannot read " + what + " " + path +
-                      " (corrupt or unsupported image)");
+                      " (" + unreadableImageReason(damage) + ")");
     return m;
   }
   throw DataError("frame " + std::to_string(frame) + ": " + what + " " + path + " is missing");

@@ -10,6 +10,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
+#include "dslam/core/png.h"
 #include "dslam/core/yaml_util.h"
 #include "dslam/trajectory/io.h"
 
@@ -127,7 +128,7 @@ CameraModel kittiCamera(const std::string& cf, const std::string& pl, const std:
   }
   // Image size from the first readable left image.
   for (size_t i = 0; i < std::min<size_t>(names.size(), 5) && cam.left.width == 0; i++) {
-    cv::Mat im = cv::imread(left_dir + "/" + names[i], cv::IMREAD_UNCHANGED);
+    cv::Mat im = readImageFile(left_dir + "/" + names[i], cv::IMREAD_UNCHANGED);
     cam.left.width = im.cols;
     cam.left.height = im.rows;
   }

@@ -116,8 +116,11 @@ void checkPngHeader(const std::string& file, const std::string& what) {
 cv::Mat readImage(const std::string& file, int flags, const std::string& what) {
   if (!fileExists(file)) throw DataError(what + " not found: " + file);
   checkPngHeader(file, what);
-  cv::Mat m = readImageFile(file, flags);
-  if (m.empty()) throw DataError("cannot read " + what + " " + file + " (corrupt or unsupported)");
+  std::string damage;
+  cv::Mat m = readImageFile(file, flags, &damage);
+  if (m.empty())
+    throw DataError("cannot read " + what + " " + file +
+                    " (" + unreadableImageReason(damage) + ")");
   return m;
 }
 

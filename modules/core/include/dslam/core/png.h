@@ -20,10 +20,20 @@ namespace dslam {
  *  8-bit RGB with cv::IMREAD_COLOR and 8-bit grey with cv::IMREAD_GRAYSCALE.
  *  Returns an empty Mat for anything else (other layouts or flags, palette,
  *  transparency or EXIF chunks, a missing, truncated or damaged file: chunk
- *  CRCs and the zlib checksum are verified): use cv::imread then. */
-cv::Mat readPngFast(const std::string& path, int flags);
+ *  CRCs and the zlib checksum are verified): use cv::imread then. `damage`
+ *  (optional) is set to why when the file is a damaged PNG (see
+ *  readImageFile), else cleared. */
+cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nullptr);
 
-/** readPngFast(path, flags), or cv::imread(path, flags) when it declines. */
-cv::Mat readImageFile(const std::string& path, int flags);
+/** readPngFast(path, flags), or cv::imread(path, flags) when it declines.
+ *  A PNG that is damaged (a CRC error in a critical chunk, truncated, image
+ *  data that does not inflate) gives an empty Mat and, in `damage`, why:
+ *  it is not passed on to cv::imread, whose libpng would print its own
+ *  "libpng error: ..." line to stderr before failing as well. */
+cv::Mat readImageFile(const std::string& path, int flags, std::string* damage = nullptr);
+
+/** Why readImageFile gave nothing, for messages: "corrupt PNG: <damage>"
+ *  for a damaged PNG, else "corrupt or unsupported image". */
+std::string unreadableImageReason(const std::string& damage);
 
 }  // namespace dslam
