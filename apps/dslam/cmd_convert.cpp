@@ -36,7 +36,8 @@ void setup(CLI::App& sub) {
   b->add_option("--images-dir", r2t.images_dir, "folder of external images (default: <rawlog>_Images)");
   b->add_option("--depth-factor", r2t.depth_factor,
                 "depth PNG units per metre (default 0: the rawlog's own 1/rangeUnits, lossless)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(dslam::app::kNonNegative);
   b->add_flag("--overwrite", r2t.overwrite, "write into a folder that already has rgb.txt");
   b->callback([] {
     const auto r = dslam::convertRawlogToTum(in, out, r2t);

@@ -141,6 +141,9 @@ void setup(CLI::App& sub) {
     using namespace dslam;
     auto det = makeDetector(o);
     const bool out_dir = !o.out.empty() && o.images.size() > 1;
+    if (!o.out.empty() && !out_dir && !cv::haveImageWriter(o.out))
+      throw ConfigError("--out " + o.out + ": OpenCV writes no image format with the extension '" +
+                        fs::path(o.out).extension().string() + "' (use .png or .jpg)");
     if (out_dir) fs::create_directories(o.out);
     for (size_t i = 0; i < o.images.size(); i++) {
       SensorFrame f;
@@ -150,7 +153,7 @@ void setup(CLI::App& sub) {
       f.image = readImageFile(f.image_path, cv::IMREAD_COLOR, &damage);
       if (f.image.empty())
         throw DataError("cannot read image " + f.image_path +
-                        (fileExists(f.image_path) ? " (" + unreadableImageReason(damage) + ")" : " (missing)"));
+                        (fs::exists(f.image_path) ? " (" + unreadableImageReason(damage) + ")" : " (missing)"));
       std::vector<double> ms;
       Detections d;
       for (int r = 0; r < o.repeat; r++) {

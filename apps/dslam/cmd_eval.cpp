@@ -1,6 +1,7 @@
 // `dslam eval ate GT EST [...]` and `dslam eval rpe GT EST --delta N --delta-unit frames|s|m [...]`:
 // trajectory evaluation against ground truth; `dslam eval objects RUN SCENE [...]`: the semantic object
 // map of a run against a synthetic scene's ground truth (docs/evaluation.md).
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -53,6 +54,28 @@ void addCommon(CLI::App* c, Common& o, const char* default_align) {
                 "write the aligned estimate (TUM format; EuRoC CSV if the name ends in .csv)");
 }
 
+/** Before anything is computed: outputs must not replace an input (a plot
+ *  `gt.png` writes `gt.csv`), and the plot must be a format the plotter writes. */
+void checkOutputs(const Common& o) {
+  namespace fs = std::filesystem;
+  std::vector<std::pair<std::string, std::string>> outs;  // (path, option)
+  if (!o.save_aligned.empty()) outs.push_back({o.save_aligned, "--save-aligned"});
+  if (!o.plot.empty()) {
+    std::string ext = fs::path(o.plot).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    if (ext != ".png" && ext != ".pdf" && ext != ".svg" && ext != ".jpg" && ext != ".jpeg")
+      throw ConfigError("--plot " + o.plot + ": the picture must end in .png, .pdf, .svg or .jpg");
+    outs.push_back({o.plot, "--plot"});
+    outs.push_back({fs::path(o.plot).replace_extension(".csv").string(), "--plot (its data file)"});
+  }
+  for (const auto& [out, opt] : outs)
+    for (const std::string& in : {o.gt, o.est, o.gt_times, o.est_times}) {
+      std::error_code ec;
+      if (!in.empty() && fs::exists(out, ec) && fs::equivalent(out, in, ec))
+        throw ConfigError(opt + " " + out + " is an input file (" + in + "): it would be overwritten; choose another name");
+    }
+}
+
 Trajectory load(const std::string& path, const std::string& format, const std::string& times, const char* what) {
   traj::ReadOptions ro;
   ro.format = traj::formatFromString(format);
@@ -99,6 +122,7 @@ void report(const Common& o, const Result& r, PlotFn plot) {
 }
 
 void runAte(const Common& o) {
+  checkOutputs(o);
   const Trajectory gt = load(o.gt, o.gt_format, o.gt_times, "ground-truth");
   const Trajectory est = load(o.est, o.est_format, o.est_times, "estimate");
   eval::AteOptions opt;
@@ -114,6 +138,7 @@ void runAte(const Common& o) {
 }
 
 void runRpe(const Common& o, double delta, const std::string& unit) {
+  checkOutputs(o);
   const Trajectory gt = load(o.gt, o.gt_format, o.gt_times, "ground-truth");
   const Trajectory est = load(o.est, o.est_format, o.est_times, "estimate");
   eval::RpeOptions opt;

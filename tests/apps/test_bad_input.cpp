@@ -175,7 +175,7 @@ std::vector<Case> cases() {
                [](const std::string& d) {
                  return "config check " + q(pipeline(d, "pipeline: {name: ${DSLAM_TEST_UNSET_VARIABLE}}\n"));
                },
-               1, {"DSLAM_TEST_UNSET_VARIABLE", "is not set and has no default"}});
+               1, {"DSLAM_TEST_UNSET_VARIABLE", "is not set (or empty) and has no default"}});
   // A pipeline's camera section with one key replaced (fx 500, width 320 otherwise).
   auto camera = [](const std::string& fx, const std::string& width) {
     return [fx, width](const std::string& d) {
@@ -206,6 +206,32 @@ std::vector<Case> cases() {
                  return runBaseline(tinyScene(), d + "/afile");
                },
                1, {"output folder $DIR/afile is a file, not a folder"}});
+  c.push_back({"output folder", "`--out` is the dataset folder",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 return runBaseline(s, s);
+               },
+               1, {"is the dataset folder", "would replace the dataset's"}});
+  c.push_back({"command line", "`--localization-only` without `--load-atlas`",
+               [](const std::string& d) { return runBaseline(tinyScene(), d + "/out") + " --localization-only"; }, 1,
+               {"--localization-only tracks against a saved map", "--load-atlas"}});
+  c.push_back({"TUM rgb image", "PNG header of 25000x25000 pixels (a decompression bomb)",
+               [](const std::string& d) {
+                 const std::string s = sceneCopy(d);
+                 std::string png = readFile(nthFile(s + "/rgb", 2));
+                 for (int k = 0; k < 2; k++)
+                   for (int b = 0; b < 4; b++) png[16 + 4 * k + b] = static_cast<char>((25000u >> (24 - 8 * b)) & 0xff);
+                 uint32_t crc = 0xffffffffu;  // IHDR's CRC made to match
+                 for (int i = 12; i < 29; i++) {
+                   crc ^= uint8_t(png[static_cast<size_t>(i)]);
+                   for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+                 }
+                 crc ^= 0xffffffffu;
+                 for (int k = 0; k < 4; k++) png[29 + static_cast<size_t>(k)] = static_cast<char>(crc >> (24 - 8 * k));
+                 writeFile(nthFile(s + "/rgb", 2), png);
+                 return runBaseline(s, d + "/out");
+               },
+               1, {"frame 2", "PNG of 25000x25000 pixels: more than the 268435456 (2^28) pixels dslam reads"}});
   c.push_back({"TUM rgb.txt", "timestamp that is not a number",
                [](const std::string& d) {
                  const std::string s = sceneCopy(d);
@@ -361,6 +387,25 @@ std::vector<Case> cases() {
                  return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
                },
                1, {"est.txt:1", "cannot tell the trajectory format from 5 columns"}});
+  c.push_back({"`dslam eval` estimate", "KITTI rows in a TUM file",
+               [](const std::string& d) {
+                 writeFile(d + "/est.txt", "1000.0 0 0 0 0 0 0 1\n1 0 0 0 0 1 0 0 0 0 1 0\n");
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/est.txt");
+               },
+               1, {"est.txt:2: 12 columns, a KITTI pose row, in a TUM file (line 1 has 8); one format per file"}});
+  c.push_back({"`dslam eval` options", "`--plot` whose data file is the ground truth",
+               [](const std::string& d) {
+                 writeFile(d + "/gt.csv", "#t,x\n");
+                 return "eval ate " + q(d + "/gt.csv") + " " + q(tinyScene() + "/groundtruth.txt") + " --plot " +
+                        q(d + "/gt.png");
+               },
+               1, {"--plot (its data file) $DIR/gt.csv is an input file", "would be overwritten"}});
+  c.push_back({"`dslam eval` options", "`--plot` to a format the plotter does not write",
+               [](const std::string& d) {
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(tinyScene() + "/groundtruth.txt") +
+                        " --plot " + q(d + "/p.txt");
+               },
+               1, {"--plot $DIR/p.txt: the picture must end in .png, .pdf, .svg or .jpg"}});
   c.push_back({"`dslam eval` estimate", "no timestamp near the ground truth",
                [](const std::string& d) {
                  writeFile(d + "/est.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n");
@@ -470,6 +515,41 @@ std::vector<Case> cases() {
                  return "eval objects " + q(objectsRun(d, estObject("\"class_id\": 62"), t)) + " " + q(tinyScene());
                },
                1, {"the run and the scene do not match: ATE rmse", "$DIR/run/trajectory.txt", "--max-ate"}});
+  c.push_back({"scenario YAML", "frame rate too high for microsecond stamps",
+               [](const std::string& d) {
+                 writeFile(d + "/scene.yaml", "name: x\nrate: 1e9\n");
+                 return "synth " + q(d + "/scene.yaml") + " --out " + q(d + "/out");
+               },
+               1, {"scene.yaml:2", "rate", "must be at most 100000"}});
+  c.push_back({"pipeline YAML", "nested 20,000 levels deep",
+               [](const std::string& d) {
+                 return "config check " +
+                        q(pipeline(d, "pipeline: {name: x}\nfeatures: {n_features: " + std::string(20000, '[') +
+                                          std::string(20000, ']') + "}\n"));
+               },
+               1, {"pipeline.yaml:2: nested more than 256 levels deep"}});
+  c.push_back({"pipeline YAML", "a NUL byte",
+               [](const std::string& d) {
+                 static const char text[] = "pipeline: {name: x}\n# \0\nfeatures: {n_features: 7}\n";
+                 return "config check " + q(pipeline(d, std::string(text, sizeof text - 1)));
+               },
+               1, {"pipeline.yaml:2: a NUL byte"}});
+  c.push_back({"pipeline YAML", "a second document (`---`)",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\n---\nfeatures: {n_features: 7}\n"));
+               },
+               1, {"pipeline.yaml:2: a second YAML document starts here"}});
+  c.push_back({"pipeline YAML", "an anchor (`&n`)",
+               [](const std::string& d) {
+                 return "config check " + q(pipeline(d, "pipeline: {name: x}\nfeatures:\n  n_features: &n 900\n"));
+               },
+               1, {"pipeline.yaml:3: YAML anchors (&name) are not supported"}});
+  c.push_back({"pipeline YAML", "`pipeline.name` that climbs out of `out/`",
+               [](const std::string& d) { return "config check " + q(pipeline(d, "pipeline: {name: ../../x}\n")); }, 1,
+               {"pipeline.yaml:1", "cannot name the default output folder"}});
+  c.push_back({"image given to `dslam detect`", "a folder",
+               [](const std::string& d) { return "detect HogPeopleDetector " + q(d); }, 1,
+               {"cannot read image", "(a folder, not an image file)"}});
   c.push_back({"scenario YAML", "unknown key",
                [](const std::string& d) {
                  writeFile(d + "/scene.yaml", "name: x\nrom: {}\n");

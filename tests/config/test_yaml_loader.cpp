@@ -31,6 +31,26 @@ TEST(YamlLoader, UnsetVariableWithoutDefaultNamesFileAndLine) {
   }
 }
 
+TEST(YamlLoader, VariablesCannotChangeTheStructure) {
+  // Values are pasted into the text: a line break injected keys, " #" cut
+  // the value silently, $include{} read any file into a value.
+  auto errorOf = [](const char* value) {
+    setenv("DSLAM_TEST_VALUE", value, 1);
+    try {
+      config::expandVariables("a: 1\nname: ${DSLAM_TEST_VALUE}\n", "cfg.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(errorOf("x\nmode: parallel").find("cfg.yaml:2: environment variable 'DSLAM_TEST_VALUE' holds a line break"),
+            std::string::npos);
+  EXPECT_NE(errorOf("a # c").find("holds ' #'"), std::string::npos);
+  EXPECT_NE(errorOf("$include{/etc/passwd}").find("holds $include{}"), std::string::npos);
+  EXPECT_EQ(errorOf("/data/run#3, 10:30"), "");  // '#', ',' and ':' inside a plain value are fine
+  unsetenv("DSLAM_TEST_VALUE");
+}
+
 TEST(YamlLoader, SharedDirBuiltinFollowsEnvironment) {
   setenv("DSLAM_SHARED_DIR", "/some/where", 1);
   EXPECT_EQ(config::expandVariables("p: ${DSLAM_SHARED_DIR}/x\n", "f"), "p: /some/where/x\n");
@@ -90,6 +110,36 @@ TEST(YamlLoader, IncludeCycleBelowTheTopLevelIsAnError) {
   }
 }
 
+TEST(YamlLoader, IncludeChainsAndFanOutAreBounded) {
+  // 20,000 files each including the next overflowed the stack; 20 files
+  // each including the next twice expanded 2^20 times (out of memory).
+  auto errorOf = [](const std::string& top) {
+    try {
+      config::loadYamlFile(top);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string d = test::tempDir("yaml_chain");
+  for (int i = 0; i < 100; i++) test::writeFile(d + "/c" + std::to_string(i) + ".yaml", "$include{c" + std::to_string(i + 1) + ".yaml}\n");
+  test::writeFile(d + "/c100.yaml", "{fx: 500}\n");
+  test::writeFile(d + "/top.yaml", "camera: $include{c0.yaml}\n");
+  EXPECT_NE(errorOf(d + "/top.yaml").find("c63.yaml:1: key 'camera': $include{} nested more than 64 files deep"),
+            std::string::npos);
+  test::writeFile(d + "/top.yaml", "camera: $include{c60.yaml}\n");  // 41 deep: fine
+  EXPECT_EQ(errorOf(d + "/top.yaml"), "");
+  const std::string f = test::tempDir("yaml_fanout");
+  for (int i = 0; i < 20; i++)
+    test::writeFile(f + "/f" + std::to_string(i) + ".yaml", "a: $include{f" + std::to_string(i + 1) + ".yaml}\nb: $include{f" +
+                                                                std::to_string(i + 1) + ".yaml}\n");
+  test::writeFile(f + "/f20.yaml", "x: 1\n");
+  test::writeFile(f + "/top.yaml", "camera: $include{f0.yaml}\n");
+  EXPECT_NE(errorOf(f + "/top.yaml").find("more than 1000 $include{} expansions in all"), std::string::npos);
+  test::writeFile(f + "/top.yaml", "camera: $include{f12.yaml}\n");  // 2^9 - 1 = 511 expansions: fine
+  EXPECT_EQ(errorOf(f + "/top.yaml"), "");
+}
+
 TEST(YamlLoader, EmptyValuesAreNullAsInYaml) {
   // MRPT's parser rejects empty values ("Unexpected empty scalar", no line).
   const auto y = config::loadYamlText(
@@ -145,6 +195,35 @@ TEST(YamlLoader, AKeyTwiceInOneMapIsAnError) {
   // plain scalar and ${ENV|default} values are fine.
   EXPECT_EQ(errorOf("p: [{a: 1}, {a: 2}]\nq: {a: {n: 1}, b: {n: 2}}\nr: {s: \"x, a: 2\", a: 1}\n"
                     "u: {s: don't, a: 1}\nv: {a: ${X|1}, b: ${X|1}}\nw: {a: 1,\n   b: 2}\nx: {a: 1}\n"),
+            "");
+}
+
+TEST(YamlLoader, StructureTheParserDoesNotReport) {
+  // NUL bytes cut the file silently, a second document was ignored,
+  // anchors and non-scalar keys gave "==== MRPT exception ====", nesting
+  // of about 10,000 levels overflowed the stack.
+  auto errorOf = [](const std::string& text) {
+    try {
+      config::loadYamlText(text, "t.yaml", "/tmp");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(errorOf(std::string("a: 1\n\0b: 2\n", 12)).find("t.yaml:2: a NUL byte"), std::string::npos);
+  EXPECT_NE(errorOf("a: 1\n---\nb: 2\n").find("t.yaml:2: a second YAML document"), std::string::npos);
+  EXPECT_NE(errorOf("a: 1\n...\nb: 2\n").find("t.yaml:3: text after the end of the YAML document"), std::string::npos);
+  EXPECT_NE(errorOf("a: &x 1\n").find("t.yaml:1: YAML anchors (&name)"), std::string::npos);
+  EXPECT_NE(errorOf("a: 1\nb: [*x]\n").find("t.yaml:2: YAML aliases (*name)"), std::string::npos);
+  EXPECT_NE(errorOf("a: {{b: 1}: 2}\n").find("a map key that is not a plain value"), std::string::npos);
+  EXPECT_NE(errorOf("a: " + std::string(300, '[') + std::string(300, ']') + "\n").find("t.yaml:1: nested more than 256"),
+            std::string::npos);
+  std::string deep;  // block nesting
+  for (int i = 0; i < 300; i++) deep += std::string(static_cast<size_t>(i), ' ') + "k:\n";
+  EXPECT_NE(errorOf(deep).find("nested more than 256 levels deep"), std::string::npos);
+  // Document markers around the one document, '&' and '*' inside values and quotes, 200 levels: fine.
+  EXPECT_EQ(errorOf("---\na: 1\nb: \"&x *y\"\nc: a&b\nd: 2 * 3\ne: " + std::string(200, '[') + std::string(200, ']') +
+                    "\nt: |\n  ---\n  &z\n...\n"),
             "");
 }
 

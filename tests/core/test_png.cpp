@@ -165,9 +165,10 @@ TEST(Png, DamagedFilesSayWhyAndAreNotPassedToLibpng) {
   };
   std::string flip = good;
   flip[idat + 30] = static_cast<char>(flip[idat + 30] ^ 0x5a);
-  EXPECT_EQ(damageOf("flip.png", flip), "CRC error in chunk IDAT at byte " + std::to_string(idat));
-  EXPECT_EQ(damageOf("half.png", good.substr(0, idat + 20)).rfind("truncated: chunk IDAT of ", 0), 0u);
-  EXPECT_EQ(damageOf("noend.png", good.substr(0, good.size() - 12)), "truncated: the file ends without an IEND chunk");
+  EXPECT_EQ(damageOf("flip.png", flip), "corrupt PNG: CRC error in chunk IDAT at byte " + std::to_string(idat));
+  EXPECT_EQ(damageOf("half.png", good.substr(0, idat + 20)).rfind("corrupt PNG: truncated: chunk IDAT of ", 0), 0u);
+  EXPECT_EQ(damageOf("noend.png", good.substr(0, good.size() - 12)),
+            "corrupt PNG: truncated: the file ends without an IEND chunk");
   // Image data that does not inflate, the chunk's CRC made to match.
   std::string bad = good;
   const uint32_t len = (uint32_t(uint8_t(bad[idat])) << 24) | (uint32_t(uint8_t(bad[idat + 1])) << 16) |
@@ -180,12 +181,24 @@ TEST(Png, DamagedFilesSayWhyAndAreNotPassedToLibpng) {
   }
   crc ^= 0xffffffffu;
   for (int k = 0; k < 4; k++) bad[idat + 8 + len + k] = static_cast<char>(crc >> (24 - 8 * k));
-  EXPECT_EQ(damageOf("inflate.png", bad), "the image data (IDAT) is not a valid zlib stream");
+  EXPECT_EQ(damageOf("inflate.png", bad), "corrupt PNG: the image data (IDAT) is not a valid zlib stream");
+  // A header of 25000 x 25000 pixels: refused before anything is decoded.
+  std::string bomb = good;
+  for (int k = 0; k < 2; k++)
+    for (int b = 0; b < 4; b++) bomb[16 + 4 * k + b] = static_cast<char>((25000u >> (24 - 8 * b)) & 0xff);
+  uint32_t hcrc = 0xffffffffu;
+  for (int i = 12; i < 12 + 17; i++) {
+    hcrc ^= uint8_t(bomb[static_cast<size_t>(i)]);
+    for (int k = 0; k < 8; k++) hcrc = (hcrc >> 1) ^ (0xedb88320u & (0u - (hcrc & 1u)));
+  }
+  hcrc ^= 0xffffffffu;
+  for (int k = 0; k < 4; k++) bomb[29 + static_cast<size_t>(k)] = static_cast<char>(hcrc >> (24 - 8 * k));
+  EXPECT_EQ(damageOf("bomb.png", bomb), "PNG of 25000x25000 pixels: more than the 268435456 (2^28) pixels dslam reads");
   // The good file still reads; a missing file or one that is not a PNG is not "damaged".
   EXPECT_TRUE(identical(readImageFile(dir + "/g.png", cv::IMREAD_UNCHANGED), grey));
   std::string why = "x";
   EXPECT_TRUE(readImageFile(dir + "/none.png", cv::IMREAD_UNCHANGED, &why).empty());
   EXPECT_EQ(why, "");
   EXPECT_EQ(unreadableImageReason(""), "corrupt or unsupported image");
-  EXPECT_EQ(unreadableImageReason("CRC error"), "corrupt PNG: CRC error");
+  EXPECT_EQ(unreadableImageReason("corrupt PNG: CRC error"), "corrupt PNG: CRC error");
 }

@@ -381,7 +381,7 @@ TEST(RawlogConvert, TumRoundTripIsBitExact) {
 }
 
 TEST(RawlogConvert, CameraFileAndMissingDepth) {
-  TinyTum t("plain");
+  TinyTum t("plain", {640, 480});
   const std::string dir = tempDir("convert2");
   writeFile(dir + "/cam.yaml", "camera:\n  preset: tum_fr3\n  depth_factor: 1000\n");
   TumToRawlogOptions o;
@@ -397,6 +397,14 @@ TEST(RawlogConvert, CameraFileAndMissingDepth) {
   o = {};
   o.preset = "nope";
   EXPECT_THROW(convertTumToRawlog(t.dir, dir + "/y.rawlog", o), ConfigError);
+  // The 640x480 camera of tum_fr1 (cy 255.3) on 320x240 images.
+  TinyTum half("half", {320, 240});
+  o.preset = "tum_fr1";
+  const std::string k = dataError([&] { convertTumToRawlog(half.dir, dir + "/k.rawlog", o); });
+  EXPECT_NE(k.find("preset tum_fr1: its principal point (318.643, 255.314) lies outside the 320x240 images"),
+            std::string::npos)
+      << k;
+  o = {};
   fs::remove(t.dir + "/depth.txt");
   const std::string e = dataError([&] { convertTumToRawlog(t.dir, dir + "/z.rawlog"); });
   EXPECT_NE(e.find("no depth"), std::string::npos) << e;
@@ -424,7 +432,7 @@ TEST(RawlogConvert, SharedRawlogToTum) {
 
 TEST(RawlogConvert, RawlogEditReadsOurRawlog) {
   if (!fs::exists("/usr/bin/rawlog-edit")) GTEST_SKIP() << "rawlog-edit not installed";
-  TinyTum t;
+  TinyTum t("rgbd_dataset_freiburg2_tiny", {640, 480});
   const std::string rl = tempDir("convert_re") + "/tiny.rawlog";
   convertTumToRawlog(t.dir, rl);
   const auto r = run("/usr/bin/rawlog-edit --info -i " + rl);

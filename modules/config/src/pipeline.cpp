@@ -310,6 +310,11 @@ static PipelineConfig loadFrom(const LoadedYaml& ly, const std::string& base_dir
 
   Params pp = L.section(pipelineParamSpecs(), yamlu::findValue(root, "pipeline"), "pipeline");
   pc.name = pp.getString("name");
+  if (pc.name == "." || pc.name == ".." ||
+      std::any_of(pc.name.begin(), pc.name.end(), [](char ch) { return ch == '/' || ch == '\\' || uint8_t(ch) < 32; }))
+    L.fail("pipeline.name", yamlu::findValue(*yamlu::findValue(root, "pipeline"), "name"),
+           "'" + pc.name + "' cannot name the default output folder out/<name>: no '/', '\\', control characters, "
+           "'.' or '..'");
   if (pc.name.empty()) pc.name = ly.file.empty() ? "pipeline" : fs::path(ly.file).stem().string();
   pc.mode = pp.getString("mode") == "parallel" ? Mode::Parallel : Mode::Sequential;
   pc.seed = static_cast<uint64_t>(pp.getInt("seed"));

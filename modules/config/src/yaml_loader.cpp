@@ -102,8 +102,19 @@ std::string expandVariables(const std::string& text, const std::string& file) {
       }
       res.append(code, i, dollar - i);
       const char* e = std::getenv(var.c_str());
-      if (e && *e)
-        res += e;
+      if (e && *e) {
+        // The value is pasted into the text: it must not change its structure.
+        const std::string v = e;
+        const char* bad = v.find_first_of("\r\n") != std::string::npos ? "a line break"
+                          : v.find(" #") != std::string::npos || v.find("\t#") != std::string::npos
+                              ? "' #' (which would start a comment)"
+                          : v.find("$include{") != std::string::npos ? "$include{} (not expanded from variables)"
+                                                                     : nullptr;
+        if (bad)
+          throw ConfigError(file + ":" + std::to_string(lineno) + ": environment variable '" + var + "' holds " + bad +
+                            "; set it to a plain value");
+        res += v;
+      }
       else if (def)
         res += *def;
       else if (var == "DSLAM_SHARED_DIR")
@@ -112,7 +123,7 @@ std::string expandVariables(const std::string& text, const std::string& file) {
         res += cfgdir.empty() ? "." : cfgdir;
       else
         throw ConfigError(file + ":" + std::to_string(lineno) + ": environment variable '" + var +
-                          "' is not set and has no default (write ${" + var + "|default})");
+                          "' is not set (or empty) and has no default (write ${" + var + "|default})");
       i = end;
     }
     if (i < code.size()) res.append(code, i, std::string::npos);
@@ -424,11 +435,93 @@ void checkDuplicateKeys(const std::string& text, const std::string& file) {
   }
 }
 
+/** Deeper nesting (of block and flow collections together) is an error:
+ *  libfyaml and MRPT's parser recurse per level and overflow the stack
+ *  at about 10,000 levels (the JSON reader has the same bound). */
+constexpr size_t kMaxYamlDepth = 256;
+
+/** What MRPT's parser does not report with a line, or not at all, checked
+ *  on the text before parsing: NUL bytes (the parser stops there silently),
+ *  a second document (silently ignored), anchors and aliases (an assertion
+ *  inside the parser), nesting deeper than kMaxYamlDepth (a stack overflow).
+ *  Blanks the document markers of the one document ('---' before it, '...'
+ *  after it). */
+void checkStructure(std::string& text, const std::string& file) {
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text, nul)) + ": a NUL byte (byte " +
+                      std::to_string(nul) + "); YAML files are text");
+  std::vector<std::string> lines = splitLines(text);
+  auto fail = [&](size_t i, const std::string& what) {
+    throw ConfigError(file + ":" + std::to_string(i + 1) + ": " + what);
+  };
+  bool content = false, ended = false, changed = false;
+  size_t block_indent = std::string::npos;
+  std::vector<size_t> indents;  // block levels
+  long flow = 0;                // open [ and { (outside quotes)
+  for (size_t i = 0; i < lines.size(); i++) {
+    const std::string c = lineContent(lines[i]);
+    const size_t ind = c.find_first_not_of(' ');
+    if (ind == std::string::npos) continue;
+    if (block_indent != std::string::npos) {
+      if (ind > block_indent) continue;
+      block_indent = std::string::npos;
+    }
+    const bool marker = ind == 0 && (c.compare(0, 3, "---") == 0 || c.compare(0, 3, "...") == 0) &&
+                        (c.size() == 3 || c[3] == ' ');
+    if (marker) {
+      if (c[0] == '-' && content)
+        fail(i, "a second YAML document starts here ('---'); a dslam YAML file holds one document");
+      if (c.size() == 3) {
+        if (c[0] == '.') ended = true;
+        lines[i].clear();
+        changed = true;
+        continue;
+      }
+    }
+    if (ended) fail(i, "text after the end of the YAML document ('...')");
+    content = true;
+    if (startsBlockScalar(c)) block_indent = ind;
+    // Anchors and aliases: a token starting with & or * where a value starts.
+    char quote = 0;
+    for (size_t k = 0; k < c.size(); k++) {
+      const char ch = c[k];
+      if (quote) {
+        if (ch == quote) quote = 0;
+        continue;
+      }
+      if ((ch == '"' || ch == '\'') && (k == 0 || std::strchr(" [{,:", c[k - 1]))) {
+        quote = ch;
+      } else if ((ch == '&' || ch == '*') && (k == 0 || std::strchr(" [{,", c[k - 1])) && k + 1 < c.size() &&
+                 (std::isalnum(static_cast<unsigned char>(c[k + 1])) || c[k + 1] == '_')) {
+        fail(i, std::string("YAML ") + (ch == '&' ? "anchors (&name)" : "aliases (*name)") +
+                    " are not supported; write the value out");
+      } else if (ch == '[' || ch == '{') {
+        if (++flow + static_cast<long>(indents.size()) > static_cast<long>(kMaxYamlDepth))
+          fail(i, "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep");
+      } else if (ch == ']' || ch == '}') {
+        flow--;
+      }
+    }
+    // Block levels: indentation, and each "- " of compact nested lists.
+    while (!indents.empty() && indents.back() > ind) indents.pop_back();
+    if (indents.empty() || indents.back() < ind) indents.push_back(ind);
+    const size_t items = (itemColumn(c, ind) - ind + 1) / 2;
+    if (indents.size() + items + static_cast<size_t>(std::max(0L, flow)) > kMaxYamlDepth)
+      fail(i, "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep");
+  }
+  if (changed) {
+    std::string out;
+    for (const auto& l : lines) out += l + "\n";
+    text = out;
+  }
+}
+
 yaml parseText(const std::string& text_in, const std::string& file) {
   if (const size_t bad = yamlu::invalidUtf8(text_in); bad != std::string::npos)  // libfyaml can hang on it
     throw ConfigError(file + ":" + std::to_string(yamlu::lineOf(text_in, bad)) + ": not valid UTF-8 text (byte " +
                       std::to_string(bad) + "); YAML files must be UTF-8");
   std::string text = text_in;
+  checkStructure(text, file);
   fillEmptyValues(text);
   yaml y;
   std::string exception_msg;
@@ -443,7 +536,14 @@ yaml parseText(const std::string& text_in, const std::string& file) {
   if (!exception_msg.empty()) {
     // MRPT's message carries "<memory>:line:col: error" plus a backtrace.
     if (exception_msg.find(": error: ") != std::string::npos) throw ConfigError(syntaxError(exception_msg, file));
-    throw ConfigError(file + ": YAML syntax error: " + exception_msg.substr(0, exception_msg.find('\n')));
+    // An assertion inside the parser: "==== MRPT exception ====\nMessage: ..."
+    std::string what;
+    if (const size_t m = exception_msg.find("Message:"); m != std::string::npos) {
+      what = exception_msg.substr(m + 8, exception_msg.find('\n', m) - m - 8);
+      what.erase(0, what.find_first_not_of(' '));
+    }
+    if (what.find("isScalar") != std::string::npos) what = "a map key that is not a plain value ({...}: or [...]:)";
+    throw ConfigError(file + ": YAML syntax error: " + (what.empty() ? "the parser gives no reason" : what));
   }
   if (!diag.empty()) std::cerr << diag;  // warnings: pass them on
   checkDuplicateKeys(text, file);
@@ -455,9 +555,16 @@ bool pathExists(const std::string& p) {
   return fs::exists(p, ec);
 }
 
+/** Bounds on $include{}: how deep a chain of includes may go, and how many
+ *  a file may expand to in all (includes that include twice what includes
+ *  twice grow exponentially: 20 such files ran out of memory). */
+constexpr size_t kMaxIncludeDepth = 64;
+constexpr size_t kMaxIncludes = 1000;
+
 struct Resolver {
   LoadedYaml* out;
   std::vector<std::string> stack;
+  size_t includes = 0;
 
   void resolveNode(node_t& n, const std::string& key_path, const std::string& cur_file) {
     if (n.isMap()) {
@@ -474,6 +581,13 @@ struct Resolver {
         if (!fileExists(inc))
           throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path + "': included " +
                             (pathExists(inc) ? "path is not a regular file: " : "file not found: ") + inc);
+        if (stack.size() > kMaxIncludeDepth)
+          throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path +
+                            "': $include{} nested more than " + std::to_string(kMaxIncludeDepth) + " files deep");
+        if (++includes > kMaxIncludes)
+          throw ConfigError(cur_file + ":" + std::to_string(n.marks.line + 1) + ": key '" + key_path + "': more than " +
+                            std::to_string(kMaxIncludes) +
+                            " $include{} expansions in all (files that include others several times each)");
         yaml sub = loadFile(inc);
         n = sub.node();
         out->origins[key_path] = inc;

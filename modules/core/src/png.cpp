@@ -1,6 +1,7 @@
 #include "dslam/core/png.h"
 
 #include <libdeflate.h>
+#include <sys/stat.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -22,7 +23,9 @@ uint32_t be32(const unsigned char* p) {
 
 bool readFile(const std::string& path, std::vector<unsigned char>& buf) {
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return false;
+  struct stat st;  // a folder opens too, and "ends" at LONG_MAX
+  if (!f || fstat(fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  if (std::fseek(f.get(), 0, SEEK_END) != 0) return false;
   const long n = std::ftell(f.get());
   if (n <= 0 || std::fseek(f.get(), 0, SEEK_SET) != 0) return false;
   buf.resize(static_cast<size_t>(n));
@@ -79,13 +82,16 @@ bool unfilter(int type, unsigned char* c, const unsigned char* p, size_t row, si
 
 }  // namespace
 
+/** Larger images are refused before decoding (no camera comes near). */
+constexpr uint64_t kMaxPixels = uint64_t(1) << 28;
+
 cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
   thread_local std::vector<unsigned char> file, idat, raw;
   if (damage) damage->clear();
   // A damaged PNG (libpng would fail on it too, after printing its own
   // "libpng error: ..." line): says why and returns nothing.
   auto damaged = [&](const std::string& why) {
-    if (damage) *damage = why;
+    if (damage) *damage = "corrupt PNG: " + why;
     return cv::Mat();
   };
   auto chunkName = [](const unsigned char* t) {
@@ -122,6 +128,12 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
       h = be32(data + 4);
       depth = data[8];
       color = data[9];
+      if (uint64_t(w) * h > kMaxPixels) {  // a decompression bomb: a few MB that decode to gigabytes
+        if (damage)
+          *damage = "PNG of " + std::to_string(w) + "x" + std::to_string(h) + " pixels: more than the " +
+                    std::to_string(kMaxPixels) + " (2^28) pixels dslam reads";
+        return {};
+      }
       if (data[10] != 0 || data[11] != 0 || data[12] != 0) return {};  // compression, filter method, interlace
     } else if (t == "IDAT") {
       idat.insert(idat.end(), data, data + len);
@@ -135,7 +147,7 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
   }
   if (!ended && w != 0) return damaged("truncated: the file ends without an IEND chunk");
   const int channels = color == 0 ? 1 : color == 2 ? 3 : color == 6 ? 4 : 0;
-  if (!ended || w == 0 || h == 0 || uint64_t(w) * h > (uint64_t(1) << 28) || channels == 0) return {};
+  if (!ended || w == 0 || h == 0 || uint64_t(w) * h > kMaxPixels || channels == 0) return {};
   if (depth != 8 && !(depth == 16 && channels == 1)) return {};
   const bool ok_flags = flags == cv::IMREAD_UNCHANGED || (flags == cv::IMREAD_ANYDEPTH && channels == 1) ||
                         (flags == cv::IMREAD_COLOR && channels == 3 && depth == 8) ||
@@ -183,6 +195,11 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
 }
 
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
+  struct stat st;
+  if (stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {  // cv::imread would try to read it
+    if (damage) *damage = S_ISDIR(st.st_mode) ? "a folder, not an image file" : "not a regular file";
+    return {};
+  }
   std::string why;
   cv::Mat m = readPngFast(path, flags, &why);
   if (damage) *damage = why;
@@ -190,7 +207,7 @@ cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
 }
 
 std::string unreadableImageReason(const std::string& damage) {
-  return damage.empty() ? "corrupt or unsupported image" : "corrupt PNG: " + damage;
+  return damage.empty() ? "corrupt or unsupported image" : damage;
 }
 
 }  // namespace dslam

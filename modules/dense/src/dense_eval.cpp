@@ -172,6 +172,9 @@ DenseEvalResult evaluateDense(const DenseMapFile& map, const synth::Scenario& s,
   r.resolution = res;
   r.keyframes = map.keyframes.size();
   r.occupied = map.occupied.size();
+  if (map.occupied.empty())
+    throw DataError("the dense map has no occupied voxels: nothing to evaluate (accuracy and completeness would "
+                    "read as perfect and as 0)");
 
   // Alignment of the map frame onto the scene: chordal mean of the
   // rotations GT_i * EST_i^-1, then the translation of the mean positions.

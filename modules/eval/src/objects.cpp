@@ -434,7 +434,7 @@ bool placesSeenAfter(const Scene& scene, std::vector<GtObjectResult>& gt) {
     std::string damage;
     const cv::Mat depth = readImageFile(file, cv::IMREAD_UNCHANGED, &damage);
     if (depth.empty() || depth.type() != CV_16UC1)
-      throw DataError(file + ": " + (damage.empty() ? "not a 16-bit depth map" : "corrupt PNG: " + damage) +
+      throw DataError(file + ": " + (damage.empty() ? std::string("not a 16-bit depth map") : damage) +
                       " (depth.txt of the scene, frame " + std::to_string(f) + ")");
     const SE3 T_cw = scene.gt.poses[static_cast<size_t>(f)].inverse();
     for (Samples& s : places) {

@@ -156,7 +156,7 @@ StereoRectification computeStereoRectification(const CameraModel& cam) {
 std::vector<ParamSpec> FrontendParams::specs() {
   const FrontendParams d;
   return {
-      P_int("n_features", d.orb.n_features, "ORB features per image (ORBextractor.nFeatures)", 0, 100000),
+      P_int("n_features", d.orb.n_features, "ORB features per image (ORBextractor.nFeatures)", 1, 100000),
       P_double("scale_factor", d.orb.scale_factor, "scale between pyramid levels (ORBextractor.scaleFactor)", 1.01, 4),
       P_int("n_levels", d.orb.n_levels, "pyramid levels (ORBextractor.nLevels)", 1, 32),
       P_int("ini_th_fast", d.orb.ini_th_fast, "FAST threshold tried first per 30 px cell (ORBextractor.iniThFAST)", 1,

@@ -165,6 +165,12 @@ std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverride
   std::string out = ov.out_dir;
   if (out.empty()) out = pc.outputs.getString("dir");
   if (out.empty()) out = "out/" + pc.name;
+  // The run's files (trajectory.txt, objects.json, ...) must not replace the dataset's own.
+  const std::string ds = dc.params.has("path") ? dc.params.getString("path") : std::string();
+  std::error_code ec1, ec2;
+  if (!ds.empty() && fs::is_directory(ds, ec1) && fs::equivalent(fs::path(out), fs::path(ds), ec2))
+    throw DataError("the output folder " + out + " is the dataset folder " + ds +
+                    ": the run's files (trajectory.txt, objects.json, ...) would replace the dataset's; give another --out");
   makeOutputDir(out, "output folder");
   // An atlas path that cannot be written is found now, not after the whole run.
   if (const std::string ap = ov.save_atlas.empty() ? outPath(pc, out, "atlas") : ov.save_atlas; !ap.empty()) {
@@ -183,6 +189,9 @@ std::string prepareOutputDir(const config::PipelineConfig& pc, const RunOverride
 
 std::unique_ptr<System> assembleSystem(const config::PipelineConfig& pc, const RunOverrides& ov,
                                        const CameraModel& cam, const PluginContext& base) {
+  if (ov.load_atlas.empty() && (ov.localization_only || SlamParams::fromConfig(pc).tracker.localization_only))
+    throw ConfigError(std::string(ov.localization_only ? "--localization-only" : "tracking.localization_only") +
+                      " tracks against a saved map and never makes one: give the map with --load-atlas FILE");
   auto sys = buildSystem(pc, cam, base, ov.localization_only);
   if (!ov.load_atlas.empty()) sys->loadMaps(ov.load_atlas);
   return sys;
@@ -328,6 +337,10 @@ LoopOutcome frameLoop(DatasetSource& reader, System& sys, const config::DatasetC
     DSLAM_LOG(Error, "run stopped after " << done << " frames; writing the results so far to " << sum.out_dir);
   }
   if (!ov.quiet_progress) progress.finish();
+  if (done > 0 && sum.tracked == 0 && !ov.localization_only)
+    DSLAM_LOG(Warn, "no frame was tracked: the map never initialised (it needs more than tracking.init_min_points "
+                    "usable keypoints with depth on one frame; features.n_features, the detector boxes and the "
+                    "depth range decide how many there are)");
   return lo;
 }
 
@@ -354,7 +367,8 @@ void writeTrajectory(const std::string& path, const config::PipelineConfig& pc, 
 /** ATE against the reader's ground truth, as text for the summary. */
 std::string evaluateAte(const DatasetSource& reader, const Trajectory& traj, RunSummary& sum) {
   const Trajectory& gt = reader.groundTruth();
-  if (gt.empty() || traj.size() < 3) return "n/a (no ground truth)";
+  if (gt.empty()) return "n/a (no ground truth)";
+  if (traj.size() < 3) return "n/a (" + std::to_string(traj.size()) + " tracked frames)";
   try {
     eval::AteOptions ao;
     ao.align = eval::Align::SE3;

@@ -274,6 +274,8 @@ struct Parser {
         is_scenario = s.has_value();
         src = p ? *p : *s;
         d.max_frames = static_cast<int>(R.integer(at, "max_frames", -1));
+        if (const auto mf = R.child(at, "max_frames"); mf && d.max_frames < 1)
+          R.fail(*mf, "must be at least 1 (leave it out for every frame)");
         if (is_scenario) {
           d.frames = static_cast<int>(R.integer(at, "frames", 0));
           if (d.frames < 0) R.fail(*R.child(at, "frames"), "must be > 0");

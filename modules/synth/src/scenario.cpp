@@ -355,8 +355,14 @@ Scenario parseLoaded(const config::LoadedYaml& ly, const ScenarioOverrides& ov) 
   s.frames = static_cast<int>(r.integer(root, "frames", s.frames));
   if (s.frames < 1 || s.frames > 100000) r.fail(*r.child(root, "frames"), "frames must be in [1, 100000]");
   s.rate = r.positive(root, "rate", s.rate);
+  // Stamps are written with 6 decimals (TUM): frames closer than 10 us, or
+  // times beyond the microseconds a double holds, would share one stamp
+  // (and one image file).
+  if (s.rate > 1e5) r.fail(*r.child(root, "rate"), "must be at most 100000 (frames/s; stamps have 1 us resolution)");
   s.start_time = r.num(root, "start_time", s.start_time);
   if (s.start_time < 0) r.fail(*r.child(root, "start_time"), "must be >= 0");
+  if (s.start_time > 1e10)
+    r.fail(*r.child(root, "start_time"), "must be at most 1e10 seconds (stamps have 1 us resolution)");
   s.seed = static_cast<uint64_t>(r.integer(root, "seed", 1));
   if (auto res = r.child(root, "resolution")) {
     auto l = r.list(*res);

@@ -95,19 +95,25 @@ bool samePose(const SE3& a, const SE3& b) {
   return (a.translation() - b.translation()).norm() < 1e-9 && a.quaternion().angularDistance(b.quaternion()) < 1e-9;
 }
 
+/** Marks a folder as `dslam synth` output from its start. */
+constexpr const char* kSynthMarker = ".dslam_synth";
+
 void prepareDir(const std::string& out, bool overwrite) {
   if (fs::exists(out)) {
     if (!fs::is_directory(out)) throw ConfigError("output path exists and is not a folder: " + out);
     if (!fs::is_empty(out)) {
       if (!overwrite) throw ConfigError("output folder already exists: " + out + " (use --overwrite to replace it)");
-      // Only replace what looks like an earlier `dslam synth` output.
-      if (!fs::exists(fs::path(out) / "objects.json") || !fs::exists(fs::path(out) / "rgb.txt"))
+      // Only replace what looks like an earlier `dslam synth` output, also
+      // one that was stopped half-way (its marker is written first).
+      if (!fs::exists(fs::path(out) / kSynthMarker) &&
+          (!fs::exists(fs::path(out) / "objects.json") || !fs::exists(fs::path(out) / "rgb.txt")))
         throw ConfigError("refusing to overwrite " + out +
                           ": it is not a `dslam synth` output (no objects.json / rgb.txt); remove it yourself");
       fs::remove_all(out);
     }
   }
   fs::create_directories(out);
+  std::ofstream(fs::path(out) / kSynthMarker) << "written by dslam synth; --overwrite may replace this folder\n";
 }
 
 ojson boxesJson(const Scenario& s, int f, const FrameRender& fr) {

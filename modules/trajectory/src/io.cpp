@@ -134,8 +134,15 @@ Format detectFormat(const std::string& path) {
 
 Trajectory readTum(const std::string& path, bool normalize) {
   Trajectory t;
-  for (const auto& l : readLines(path)) {
+  const auto lines = readLines(path);
+  for (const auto& l : lines) {
     need(path, l, 8, "timestamp tx ty tz qx qy qz qw");
+    // Extra columns are allowed (TUM's tools ignore them), but a KITTI pose
+    // row would be read as a pose at the time of its first number.
+    if ((l.fields.size() == 12 || l.fields.size() == 13) && lines.front().fields.size() < 12)
+      throw DataError(path + ":" + std::to_string(l.lineno) + ": " + std::to_string(l.fields.size()) +
+                      " columns, a KITTI pose row, in a TUM file (line " + std::to_string(lines.front().lineno) +
+                      " has " + std::to_string(lines.front().fields.size()) + "); one format per file");
     const double stamp = num(path, l, 0);
     t.push_back(stamp, fromQuat(num(path, l, 7), num(path, l, 4), num(path, l, 5), num(path, l, 6),
                                 {num(path, l, 1), num(path, l, 2), num(path, l, 3)}, path, l));

@@ -123,6 +123,10 @@ ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& o
     PinholeCamera k = cam.left;
     k.width = rgb.cols;
     k.height = rgb.rows;
+    if (!k.principalPointInside())
+      throw DataError(rep.camera + ": its principal point (" + ds::fmtNumber(k.cx) + ", " + ds::fmtNumber(k.cy) +
+                      ") lies outside the " + std::to_string(k.width) + "x" + std::to_string(k.height) + " images of " +
+                      in_dir + ": not the camera of these images (give --camera FILE)");
     obs->cameraParamsIntensity = rawlog::toTCamera(k, cam.name.empty() ? "rgbd" : cam.name);
     obs->cameraParams = obs->cameraParamsIntensity;  // TUM depth is registered to the RGB camera
     obs->relativePoseIntensityWRTDepth = mrpt::poses::CPose3D(0, 0, 0, mrpt::DEG2RAD(-90.0), 0, mrpt::DEG2RAD(-90.0));
@@ -193,6 +197,7 @@ ConvertReport convertRawlogToTum(const std::string& in_rawlog, const std::string
         for (int c = 0; c < d16.cols; c++) {
           const double v = std::round(static_cast<double>(s[c]) * factor);
           if (!(v > 0)) {
+            if (s[c] > 0) rep.depth_zeroed++;  // a valid depth rounded to "no depth"
             o[c] = 0;
           } else if (v > 65535) {
             o[c] = 0;
@@ -213,6 +218,9 @@ ConvertReport convertRawlogToTum(const std::string& in_rawlog, const std::string
   if (rep.depth_clipped)
     DSLAM_LOG(Warn, "rawlog2tum: " << rep.depth_clipped << " depth pixels beyond 65535 / " << factor
                                    << " m set to 0 (invalid); use a smaller --depth-factor");
+  if (rep.depth_zeroed)
+    DSLAM_LOG(Warn, "rawlog2tum: " << rep.depth_zeroed << " valid depth pixels closer than 0.5 / " << factor
+                                   << " m rounded to 0 (invalid); use a larger --depth-factor");
   cam.depth_factor = rgbd ? factor : cam.depth_factor;
   std::ofstream fc(out_dir + "/camera.yaml");
   fc << "# camera of " << in_rawlog << " (sensor '" << rl.sensorLabel() << "'), written by dslam convert rawlog2tum\n"

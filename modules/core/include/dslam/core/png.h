@@ -29,11 +29,14 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nu
  *  A PNG that is damaged (a CRC error in a critical chunk, truncated, image
  *  data that does not inflate) gives an empty Mat and, in `damage`, why:
  *  it is not passed on to cv::imread, whose libpng would print its own
- *  "libpng error: ..." line to stderr before failing as well. */
+ *  "libpng error: ..." line to stderr before failing as well. So does a
+ *  PNG of more than 2^28 pixels (a decompression bomb: a few MB of file
+ *  that cv::imread would decode into gigabytes). */
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage = nullptr);
 
-/** Why readImageFile gave nothing, for messages: "corrupt PNG: <damage>"
- *  for a damaged PNG, else "corrupt or unsupported image". */
+/** Why readImageFile gave nothing, for messages: its `damage` ("corrupt
+ *  PNG: ...", "PNG of WxH pixels: more than ...") or "corrupt or
+ *  unsupported image". */
 std::string unreadableImageReason(const std::string& damage);
 
 }  // namespace dslam

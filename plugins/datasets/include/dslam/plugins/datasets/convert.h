@@ -28,6 +28,7 @@ struct ConvertReport {
   std::string camera;  ///< where the intrinsics came from
   double depth_factor = 0;
   size_t depth_clipped = 0;  ///< rawlog2tum: pixels beyond the 16-bit range set to 0
+  size_t depth_zeroed = 0;   ///< valid depth pixels that --depth-factor rounded to 0 (warned)
   bool depth_exact = true;   ///< rawlog2tum: raw depth copied unchanged
 };
 
