@@ -222,7 +222,7 @@ TEST(YamlLoader, StructureTheParserDoesNotReport) {
   for (int i = 0; i < 300; i++) deep += std::string(static_cast<size_t>(i), ' ') + "k:\n";
   EXPECT_NE(errorOf(deep).find("nested more than 256 levels deep"), std::string::npos);
   // Document markers around the one document, '&' and '*' inside values and quotes, 200 levels: fine.
-  EXPECT_EQ(errorOf("---\na: 1\nb: \"&x *y\"\nc: a&b\nd: 2 * 3\ne: " + std::string(200, '[') + std::string(200, ']') +
+  EXPECT_EQ(errorOf("---\na: 1\nb: \"&x *y\"\nc: a&b\nd: 2 * 3\nn: use *bold* & more\ne: " + std::string(200, '[') + std::string(200, ']') +
                     "\nt: |\n  ---\n  &z\n...\n"),
             "");
 }

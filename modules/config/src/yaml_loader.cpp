@@ -481,18 +481,23 @@ void checkStructure(std::string& text, const std::string& file) {
     if (ended) fail(i, "text after the end of the YAML document ('...')");
     content = true;
     if (startsBlockScalar(c)) block_indent = ind;
-    // Anchors and aliases: a token starting with & or * where a value starts.
-    char quote = 0;
+    // Anchors and aliases: a token starting with & or * where a value
+    // starts (after "key:", "- ", '[', '{' or ','; not inside a plain
+    // scalar such as "a *note*").
+    char quote = 0, prev = 0;  // prev: the last character other than a space
     for (size_t k = 0; k < c.size(); k++) {
       const char ch = c[k];
+      const char before = prev;
+      if (ch != ' ' && ch != '\t') prev = ch;
       if (quote) {
         if (ch == quote) quote = 0;
         continue;
       }
+      const bool value_start = before == 0 || std::strchr(":-[{,", before);
       if ((ch == '"' || ch == '\'') && (k == 0 || std::strchr(" [{,:", c[k - 1]))) {
         quote = ch;
-      } else if ((ch == '&' || ch == '*') && (k == 0 || std::strchr(" [{,", c[k - 1])) && k + 1 < c.size() &&
-                 (std::isalnum(static_cast<unsigned char>(c[k + 1])) || c[k + 1] == '_')) {
+      } else if ((ch == '&' || ch == '*') && value_start && (k == 0 || c[k - 1] == ' ' || std::strchr("[{,", c[k - 1])) &&
+                 k + 1 < c.size() && (std::isalnum(static_cast<unsigned char>(c[k + 1])) || c[k + 1] == '_')) {
         fail(i, std::string("YAML ") + (ch == '&' ? "anchors (&name)" : "aliases (*name)") +
                     " are not supported; write the value out");
       } else if (ch == '[' || ch == '{') {
