@@ -12,6 +12,20 @@
 
 using namespace dslam;
 
+namespace {
+
+/** The error of loading `text` as t.yaml; "" if it loads. */
+std::string errorOf(const std::string& text) {
+  try {
+    config::loadYamlText(text, "t.yaml", "/tmp");
+  } catch (const ConfigError& e) {
+    return std::string(e.what());
+  }
+  return std::string();
+}
+
+}  // namespace
+
 TEST(YamlLoader, EnvVariablesWithDefaults) {
   setenv("DSLAM_TEST_VAR", "from_env", 1);
   unsetenv("DSLAM_TEST_UNSET");
@@ -165,14 +179,6 @@ TEST(YamlLoader, EmptyValuesAreNullAsInYaml) {
 
 TEST(YamlLoader, AKeyTwiceInOneMapIsAnError) {
   // MRPT kept the last one silently: `pipeline:` twice ran the second.
-  auto errorOf = [](const std::string& text) {
-    try {
-      config::loadYamlText(text, "t.yaml", "/tmp");
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
   EXPECT_NE(errorOf("pipeline:\n  name: a\npipeline:\n  name: b\n")
                 .find("t.yaml:3: key 'pipeline' appears twice in the same map (first on line 1)"),
             std::string::npos);
@@ -202,14 +208,6 @@ TEST(YamlLoader, StructureTheParserDoesNotReport) {
   // NUL bytes cut the file silently, a second document was ignored,
   // anchors and non-scalar keys gave "==== MRPT exception ====", nesting
   // of about 10,000 levels overflowed the stack.
-  auto errorOf = [](const std::string& text) {
-    try {
-      config::loadYamlText(text, "t.yaml", "/tmp");
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
   EXPECT_NE(errorOf(std::string("a: 1\n\0b: 2\n", 12)).find("t.yaml:2: a NUL byte"), std::string::npos);
   EXPECT_NE(errorOf("a: 1\n---\nb: 2\n").find("t.yaml:2: a second YAML document"), std::string::npos);
   EXPECT_NE(errorOf("a: 1\n...\nb: 2\n").find("t.yaml:3: text after the end of the YAML document"), std::string::npos);
