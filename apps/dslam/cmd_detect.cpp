@@ -144,7 +144,16 @@ void setup(CLI::App& sub) {
     if (!o.out.empty() && !out_dir && !cv::haveImageWriter(o.out))
       throw ConfigError("--out " + o.out + ": OpenCV writes no image format with the extension '" +
                         fs::path(o.out).extension().string() + "' (use .png or .jpg)");
-    if (out_dir) fs::create_directories(o.out);
+    if (out_dir) {
+      // <stem>_det.png per input: two inputs of one name would share it.
+      std::map<std::string, std::string> stems;
+      for (const auto& im : o.images)
+        if (auto [it, fresh] = stems.emplace(fs::path(im).stem().string(), im); !fresh)
+          throw ConfigError("--out " + o.out + ": " + it->second + " and " + im + " would both be written to " +
+                            (fs::path(o.out) / (it->first + "_det.png")).string() +
+                            "; detect them in two calls (or with different --out)");
+      fs::create_directories(o.out);
+    }
     for (size_t i = 0; i < o.images.size(); i++) {
       SensorFrame f;
       f.index = int(i);

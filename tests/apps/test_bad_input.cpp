@@ -547,6 +547,16 @@ std::vector<Case> cases() {
   c.push_back({"pipeline YAML", "`pipeline.name` that climbs out of `out/`",
                [](const std::string& d) { return "config check " + q(pipeline(d, "pipeline: {name: ../../x}\n")); }, 1,
                {"pipeline.yaml:1", "cannot name the default output folder"}});
+  c.push_back({"image given to `dslam detect`", "two inputs of one name with `--out DIR`",
+               [](const std::string& d) {
+                 const std::string img = nthFile(tinyScene() + "/rgb", 0);
+                 fs::create_directories(d + "/a");
+                 fs::create_directories(d + "/b");
+                 fs::copy_file(img, d + "/a/x.png");
+                 fs::copy_file(img, d + "/b/x.png");
+                 return "detect HogPeopleDetector " + q(d + "/a/x.png") + " " + q(d + "/b/x.png") + " --out " + q(d + "/o");
+               },
+               1, {"--out $DIR/o: ", "/a/x.png and ", "/b/x.png would both be written to ", "/o/x_det.png"}});
   c.push_back({"image given to `dslam detect`", "a folder",
                [](const std::string& d) { return "detect HogPeopleDetector " + q(d); }, 1,
                {"cannot read image", "(a folder, not an image file)"}});
