@@ -71,6 +71,31 @@ TEST(DarknetYoloDetector, YoloFastestBodyFindsThePerson) {
   EXPECT_GT(test::bestIou(det->detect(g), coco::kPerson, kPerson), 0.5f);
 }
 
+TEST(DarknetYoloDetector, WeightsOfTheWrongSizeAreRefused) {
+  // OpenCV loaded both without a word: a file cut to 100 kB gave 420 boxes
+  // on person.jpg, the xl COCO weights with the body cfg none.
+  const std::string m = test::shared("models");
+  if (m.empty() || !std::filesystem::exists(m + "/yolo-fastest-body")) GTEST_SKIP();
+  const std::string cfg = m + "/yolo-fastest-body/yolo-fastest-1.1_body.cfg";
+  const std::string cut = test::tempDir("darknet") + "/cut.weights";
+  test::writeFile(cut, test::readFile(m + "/yolo-fastest-body/yolo-fastest-1.1_body.weights").substr(0, 100000));
+  auto errorOf = [&](const std::string& weights) {
+    try {
+      test::makeDetector("dslam::DarknetYoloDetector", "cfg: " + cfg + "\nweights: " + weights + "\n");
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(errorOf(cut).find("cut.weights hold 24995 values, but " + cfg + " needs 294396"), std::string::npos)
+      << errorOf(cut);
+  EXPECT_NE(errorOf(m + "/yolo-fastest-coco/yolo-fastest-1.1-xl.weights").find("hold 923486 values"), std::string::npos);
+  // Every shipped model matches its cfg exactly.
+  EXPECT_EQ(errorOf(m + "/yolo-fastest-body/yolo-fastest-1.1_body.weights"), "");
+  for (const char* model : {"yolo-fastest-coco", "yolo-fastest-xl"})
+    EXPECT_NO_THROW(test::makeDetector("dslam::DarknetYoloDetector", std::string("model: ") + model)) << model;
+}
+
 TEST(DarknetYoloDetector, YoloFastestCocoFindsPersonAndDog) {
   const std::string img = personJpg();
   if (img.empty()) GTEST_SKIP();

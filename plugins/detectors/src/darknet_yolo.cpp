@@ -2,6 +2,15 @@
 
 #include <opencv2/dnn.hpp>
 
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <vector>
+
 #include "common.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
@@ -53,6 +62,83 @@ std::vector<ParamSpec> DarknetYoloDetector::paramSpecs() const {
   };
 }
 
+namespace {
+
+/** Number of weight values the network of Darknet `cfg` has (convolution
+ *  kernels and biases, batch-norm scales, means and variances), or nothing
+ *  for layer kinds this count does not know. OpenCV reads a truncated
+ *  weights file, or the weights of another network, without a word: the
+ *  detector then reports boxes of garbage (a file cut to 100 kB: 420 people
+ *  on one photo). */
+std::optional<size_t> darknetWeightCount(const std::string& cfg) {
+  std::ifstream f(cfg);
+  if (!f) return std::nullopt;
+  std::vector<std::pair<std::string, std::map<std::string, std::string>>> sections;
+  std::string line;
+  while (std::getline(f, line)) {
+    line = line.substr(0, line.find_first_of("#;"));
+    line.erase(std::remove_if(line.begin(), line.end(), [](unsigned char c) { return std::isspace(c); }), line.end());
+    if (line.empty()) continue;
+    if (line.front() == '[' && line.back() == ']')
+      sections.push_back({line.substr(1, line.size() - 2), {}});
+    else if (const size_t eq = line.find('='); eq != std::string::npos && !sections.empty())
+      sections.back().second[line.substr(0, eq)] = line.substr(eq + 1);
+  }
+  if (sections.empty() || (sections[0].first != "net" && sections[0].first != "network")) return std::nullopt;
+  auto num = [](const std::map<std::string, std::string>& m, const char* k, long d) {
+    const auto it = m.find(k);
+    return it == m.end() ? d : std::strtol(it->second.c_str(), nullptr, 10);
+  };
+  long ch = num(sections[0].second, "channels", 3);
+  std::vector<long> out;  // channels after each layer
+  size_t n = 0;
+  for (size_t i = 1; i < sections.size(); i++) {
+    const auto& [type, m] = sections[i];
+    if (type == "convolutional") {
+      const long filters = num(m, "filters", 1), size = num(m, "size", 1), groups = std::max(1L, num(m, "groups", 1));
+      if (filters < 1 || size < 1 || ch % groups) return std::nullopt;
+      n += static_cast<size_t>(filters * (ch / groups) * size * size + filters * (num(m, "batch_normalize", 0) ? 4 : 1));
+      ch = filters;
+    } else if (type == "route") {
+      const auto it = m.find("layers");
+      if (it == m.end()) return std::nullopt;
+      long sum = 0;
+      std::stringstream ls(it->second);
+      for (std::string t; std::getline(ls, t, ',');) {
+        long l = std::strtol(t.c_str(), nullptr, 10);
+        if (l < 0) l += static_cast<long>(out.size());
+        if (l < 0 || l >= static_cast<long>(out.size())) return std::nullopt;
+        sum += out[static_cast<size_t>(l)];
+      }
+      ch = sum / std::max(1L, num(m, "groups", 1));
+    } else if (type != "shortcut" && type != "maxpool" && type != "upsample" && type != "yolo" &&
+               type != "dropout" && type != "avgpool") {
+      return std::nullopt;
+    }
+    out.push_back(ch);
+  }
+  return n;
+}
+
+/** The weights file must hold exactly what `cfg` needs after its header. */
+void checkDarknetWeights(const std::string& cfg, const std::string& weights) {
+  const auto need = darknetWeightCount(cfg);
+  if (!need) return;
+  std::ifstream f(weights, std::ios::binary);
+  int32_t v[3] = {0, 0, 0};  // major, minor, revision; then "seen" (8 bytes from 0.2 on, else 4)
+  if (!f.read(reinterpret_cast<char*>(v), sizeof v))
+    throw DataError("Darknet weights " + weights + ": too short for even the header");
+  f.seekg(0, std::ios::end);
+  const size_t bytes = static_cast<size_t>(f.tellg());
+  const size_t header = (v[0] * 10 + v[1] >= 2 && v[0] < 1000 && v[1] < 1000) ? 20 : 16;
+  const size_t have = bytes >= header ? (bytes - header) / 4 : 0;
+  if (bytes < header || (bytes - header) % 4 || have != *need)
+    throw DataError("Darknet weights " + weights + " hold " + std::to_string(have) + " values, but " + cfg +
+                    " needs " + std::to_string(*need) + " (a truncated file, or the weights of another network)");
+}
+
+}  // namespace
+
 void DarknetYoloDetector::configure(const Params& p, const PluginContext& ctx) {
   Plugin::configure(p, ctx);
   const std::string model = p.getString("model");
@@ -75,6 +161,7 @@ void DarknetYoloDetector::configure(const Params& p, const PluginContext& ctx) {
   swap_rb_ = p.getBool("swap_rb");
   scale_ = float(p.getDouble("scale"));
   mult_ = p.getBool("multiply_objectness");
+  checkDarknetWeights(cfg, weights);
   try {
     net_ = cv::dnn::readNetFromDarknet(cfg, weights);
   } catch (const cv::Exception& e) {
