@@ -566,6 +566,14 @@ std::vector<Case> cases() {
                  return "synth " + q(d + "/scene.yaml") + " --out " + q(d + "/out");
                },
                1, {"scene.yaml:2", "unknown key 'rom'", "did you mean 'room'"}});
+  c.push_back({"`dslam vocab train` output", "one of its training images",
+               [](const std::string& d) {
+                 const std::string img = nthFile(tinyScene() + "/rgb", 0);
+                 fs::create_directories(d + "/imgs");
+                 fs::copy_file(img, d + "/imgs/a.png");
+                 return "vocab train --images " + q(d + "/imgs") + " -o " + q(d + "/imgs/a.png") + " --format binary";
+               },
+               1, {"--out $DIR/imgs/a.png is a file of the training input", "would be overwritten"}});
   c.push_back({"vocabulary", "file does not exist",
                [](const std::string& d) { return "vocab info " + q(d + "/nothere.dvoc.gz"); }, 1,
                {"vocabulary not found", "nothere.dvoc.gz"}});
