@@ -21,11 +21,18 @@ uint32_t be32(const unsigned char* p) {
   return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
 }
 
-bool readFile(const std::string& path, std::vector<unsigned char>& buf) {
+/** The bytes of regular file `path`. Anything else is not opened (a folder
+ *  opens and "ends" at LONG_MAX; opening a FIFO waits for a writer): false,
+ *  and `not_file` says what it is. */
+bool readFile(const std::string& path, std::vector<unsigned char>& buf, std::string& not_file) {
+  struct stat st;
+  if (stat(path.c_str(), &st) != 0) return false;
+  if (!S_ISREG(st.st_mode)) {
+    not_file = S_ISDIR(st.st_mode) ? "a folder, not an image file" : "not a regular file";
+    return false;
+  }
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  struct stat st;  // a folder opens too, and "ends" at LONG_MAX
-  if (!f || fstat(fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) return false;
-  if (std::fseek(f.get(), 0, SEEK_END) != 0) return false;
+  if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return false;
   const long n = std::ftell(f.get());
   if (n <= 0 || std::fseek(f.get(), 0, SEEK_SET) != 0) return false;
   buf.resize(static_cast<size_t>(n));
@@ -99,7 +106,10 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
     for (int i = 0; i < 4; i++) n += std::isalpha(t[i]) ? static_cast<char>(t[i]) : '?';
     return n;
   };
-  if (!readFile(path, file)) return {};
+  if (std::string not_file; !readFile(path, file, not_file)) {
+    if (damage) *damage = not_file;
+    return {};
+  }
   static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (file.size() < 8 + 25 || std::memcmp(file.data(), kSig, 8) != 0) return {};
   // Chunks: IHDR first, IDATs, IEND; ancillary chunks that change what
@@ -195,11 +205,6 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
 }
 
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
-  struct stat st;
-  if (stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {  // cv::imread would try to read it
-    if (damage) *damage = S_ISDIR(st.st_mode) ? "a folder, not an image file" : "not a regular file";
-    return {};
-  }
   std::string why;
   cv::Mat m = readPngFast(path, flags, &why);
   if (damage) *damage = why;

@@ -21,8 +21,8 @@ namespace dslam {
  *  Returns an empty Mat for anything else (other layouts or flags, palette,
  *  transparency or EXIF chunks, a missing, truncated or damaged file: chunk
  *  CRCs and the zlib checksum are verified): use cv::imread then. `damage`
- *  (optional) is set to why when the file is a damaged PNG (see
- *  readImageFile), else cleared. */
+ *  (optional) is set to why when the file must not go to cv::imread either
+ *  (see readImageFile), else cleared. */
 cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nullptr);
 
 /** readPngFast(path, flags), or cv::imread(path, flags) when it declines.
@@ -31,7 +31,8 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nu
  *  it is not passed on to cv::imread, whose libpng would print its own
  *  "libpng error: ..." line to stderr before failing as well. So does a
  *  PNG of more than 2^28 pixels (a decompression bomb: a few MB of file
- *  that cv::imread would decode into gigabytes). */
+ *  that cv::imread would decode into gigabytes), and a path that is not a
+ *  regular file (a folder, a FIFO cv::imread would wait on). */
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage = nullptr);
 
 /** Why readImageFile gave nothing, for messages: its `damage` ("corrupt
