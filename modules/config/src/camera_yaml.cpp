@@ -2,7 +2,6 @@
 
 #include <mrpt/containers/yaml.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <tuple>
@@ -10,6 +9,7 @@
 #include "dslam/config/yaml_loader.h"
 #include "dslam/core/camera_presets.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/yaml_util.h"
 
 namespace dslam::config {
@@ -62,12 +62,6 @@ static std::array<double, 5> distFrom(const std::vector<double>& d, const std::s
   return a;
 }
 
-static std::string shortNumber(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
-
 static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset, const std::string& where) {
   auto take = [&](const char* k) { return !use_preset || p.isGiven(k); };
   if (take("width")) cam.width = static_cast<int>(p.getInt("width"));
@@ -87,7 +81,7 @@ static void intrinsicsFrom(const Params& p, PinholeCamera& cam, bool use_preset,
       if (!(v >= 0 && v <= side))
         throw ConfigError(where + ": '" + k + "' (" +
                           (p.isGiven(k) ? yamlu::scalarText(*yamlu::findValue(p.asYaml().node(), k)).value_or("?")
-                                        : shortNumber(v) + ", from the preset") +
+                                        : formatNumber("%g", v) + ", from the preset") +
                           ") lies outside the image: the principal point must be within 0.." + side_name + " (" +
                           std::to_string(side) + ") pixels");
   if (!use_preset) {

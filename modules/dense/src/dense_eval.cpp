@@ -16,6 +16,7 @@
 #include <unordered_set>
 
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
 #include "dslam/synth/renderer.h"
@@ -94,9 +95,8 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
   if (!tree.readBinary(bt_path)) throw DataError("cannot read OctoMap binary file " + bt_path);
   m.resolution = tree.getResolution();
   if (!(m.resolution >= 1e-4 && m.resolution <= 100)) {
-    char res[32];
-    std::snprintf(res, sizeof(res), "%g", m.resolution);
-    throw DataError(bt_path + ": OctoMap resolution " + res + " m is outside 0.0001-100 m (not a dslam dense map?)");
+    throw DataError(bt_path + ": OctoMap resolution " + formatNumber("%g", m.resolution) +
+                    " m is outside 0.0001-100 m (not a dslam dense map?)");
   }
   const json j = parseJsonFile(jp);
   if (j.contains("resolution") &&

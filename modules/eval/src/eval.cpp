@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/trajectory/associate.h"
 
 namespace dslam::eval {
@@ -137,13 +138,8 @@ Alignment alignPoints(const std::vector<Eigen::Vector3d>& est, const std::vector
 }
 
 namespace {
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), f, v);
-  return buf;
-}
 std::string span(const Trajectory& t) {
-  return "[" + fmt("%.6f", t.stamps.front()) + ", " + fmt("%.6f", t.stamps.back()) + "] s";
+  return "[" + formatNumber("%.6f", t.stamps.front()) + ", " + formatNumber("%.6f", t.stamps.back()) + "] s";
 }
 }  // namespace
 
@@ -155,7 +151,7 @@ Association associate(const Trajectory& gt, const Trajectory& est, double max_dt
   a.max_dt = max_dt;
   a.pairs = traj::associate(gt.stamps, est.stamps, max_dt);
   if (a.pairs.empty())
-    throw DataError("no ground-truth pose within max_dt " + fmt("%g", max_dt) + " s of any of the " +
+    throw DataError("no ground-truth pose within max_dt " + formatNumber("%g", max_dt) + " s of any of the " +
                     std::to_string(est.size()) + " estimate poses: ground truth " + gt_name + " spans " + span(gt) +
                     " (" + std::to_string(gt.size()) + " poses), estimate " + est_name + " spans " + span(est) +
                     " (check the timestamps, the files' formats or --max-dt)");
@@ -201,9 +197,9 @@ SE3 relativeError(const SE3& gt0, const SE3& gt1, const SE3& est0, const SE3& es
 
 RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, const RpeOptions& opt) {
   if (!(opt.delta > 0) || !std::isfinite(opt.delta))
-    throw ConfigError("RPE delta must be positive, got " + fmt("%g", opt.delta));
+    throw ConfigError("RPE delta must be positive, got " + formatNumber("%g", opt.delta));
   if (opt.unit == DeltaUnit::Frames && opt.delta != std::floor(opt.delta))
-    throw ConfigError("RPE delta in frames must be an integer, got " + fmt("%g", opt.delta));
+    throw ConfigError("RPE delta in frames must be an integer, got " + formatNumber("%g", opt.delta));
 
   RpeResult r;
   r.options = opt;
@@ -248,14 +244,14 @@ RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, const RpeOptio
     if (opt.unit == DeltaUnit::Frames) {
       what = std::to_string(n) + " associated poses";
     } else if (opt.unit == DeltaUnit::Seconds) {
-      what = "associated poses span " + fmt("%.6g", gt.stamps[P.back().first] - gt.stamps[P.front().first]) + " s";
+      what = "associated poses span " + formatNumber("%.6g", gt.stamps[P.back().first] - gt.stamps[P.front().first]) + " s";
     } else {
       double L = 0;
       for (size_t i = P.front().first + 1; i <= P.back().first; i++)
         L += (gt.poses[i].translation() - gt.poses[i - 1].translation()).norm();
-      what = "associated poses span " + fmt("%.6g", L) + " m of ground-truth path";
+      what = "associated poses span " + formatNumber("%.6g", L) + " m of ground-truth path";
     }
-    throw DataError("RPE: no pose pair " + fmt("%g", opt.delta) + " " + toString(opt.unit) + " apart (" + what +
+    throw DataError("RPE: no pose pair " + formatNumber("%g", opt.delta) + " " + toString(opt.unit) + " apart (" + what +
                     "; ground truth " + opt.gt_name + ", estimate " + opt.est_name + ")");
   }
 
@@ -298,7 +294,7 @@ nlohmann::ordered_json statsJson(const Stats& s) {
 
 std::string statsText(const Stats& s, const char* unit) {
   std::ostringstream o;
-  auto line = [&](const char* name, double v) { o << "  " << name << fmt("%.7f", v) << " " << unit << "\n"; };
+  auto line = [&](const char* name, double v) { o << "  " << name << formatNumber("%.7f", v) << " " << unit << "\n"; };
   line("rmse   ", s.rmse);
   line("mean   ", s.mean);
   line("median ", s.median);
@@ -310,7 +306,7 @@ std::string statsText(const Stats& s, const char* unit) {
 
 std::string alignText(const Alignment& a) {
   std::string s = toString(a.method);
-  if (a.method == Align::Sim3) s += " (scale " + fmt("%.6f", a.scale) + ")";
+  if (a.method == Align::Sim3) s += " (scale " + formatNumber("%.6f", a.scale) + ")";
   return s;
 }
 
@@ -344,7 +340,7 @@ std::string toJson(const RpeResult& r) {
 std::string toText(const AteResult& r) {
   std::ostringstream o;
   o << "ATE (translational, after alignment)\n"
-    << "  max_dt " << fmt("%g", r.assoc.max_dt) << " s, alignment " << alignText(r.alignment) << ", "
+    << "  max_dt " << formatNumber("%g", r.assoc.max_dt) << " s, alignment " << alignText(r.alignment) << ", "
     << r.stats.count << " pose pairs\n"
     << statsText(r.stats, "m");
   return o.str();
@@ -352,8 +348,8 @@ std::string toText(const AteResult& r) {
 
 std::string toText(const RpeResult& r) {
   std::ostringstream o;
-  o << "RPE (delta " << fmt("%g", r.options.delta) << " " << toString(r.options.unit) << ")\n"
-    << "  max_dt " << fmt("%g", r.assoc.max_dt) << " s, alignment " << alignText(r.alignment) << ", "
+  o << "RPE (delta " << formatNumber("%g", r.options.delta) << " " << toString(r.options.unit) << ")\n"
+    << "  max_dt " << formatNumber("%g", r.assoc.max_dt) << " s, alignment " << alignText(r.alignment) << ", "
     << r.assoc.size() << " associated poses, " << r.pairs.size() << " pose pairs\n"
     << "translational:\n"
     << statsText(r.trans, "m") << "rotational:\n"

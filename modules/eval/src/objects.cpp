@@ -13,6 +13,7 @@
 
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/png.h"
 #include "dslam/trajectory/io.h"
@@ -35,11 +36,6 @@ double ObjectBox::distance(const Eigen::Vector3d& p) const {
 
 namespace {
 
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string describe(const json& v) {
   std::string t = v.dump();
@@ -378,7 +374,7 @@ void alignRun(const Scene& scene, const Trajectory& traj, const ObjectEvalOption
   if (2 * a.size() < traj.size())
     throw DataError(mismatch + "only " + std::to_string(a.size()) + " of the " + std::to_string(traj.size()) +
                     " poses of " + r.traj_file + " have a ground-truth pose of " + gt_name + " within " +
-                    fmt("%g", opt.max_dt) + " s");
+                    formatNumber("%g", opt.max_dt) + " s");
   std::vector<Eigen::Vector3d> est_p, gt_p;
   for (const auto& [gi, ei] : a.pairs)
     if (scene.gt.stamps[gi] < r.align_until) {
@@ -388,7 +384,7 @@ void alignRun(const Scene& scene, const Trajectory& traj, const ObjectEvalOption
   r.align_pairs = est_p.size();
   if (opt.align != Align::None && est_p.size() < 3)
     throw DataError(r.traj_file + ": only " + std::to_string(est_p.size()) + " trajectory poses before " +
-                    fmt("%.3f", r.align_until) +
+                    formatNumber("%.3f", r.align_until) +
                     " s (the first change event) to align on, 3 needed (set --align-until or --align none)");
   r.alignment = alignPoints(est_p, gt_p, opt.align);
   std::vector<double> ea, eall;
@@ -400,9 +396,9 @@ void alignRun(const Scene& scene, const Trajectory& traj, const ObjectEvalOption
   r.align_ate = rmse(ea);
   r.ate = rmse(eall);
   if (r.align_ate > opt.max_ate)
-    throw DataError(mismatch + "ATE rmse " + fmt("%.3f", r.align_ate) + " m on " + std::to_string(ea.size()) +
+    throw DataError(mismatch + "ATE rmse " + formatNumber("%.3f", r.align_ate) + " m on " + std::to_string(ea.size()) +
                     " poses of " + r.traj_file + " after " + toString(opt.align) + " alignment to " + gt_name +
-                    " (more than --max-ate " + fmt("%g", opt.max_ate) + " m)");
+                    " (more than --max-ate " + formatNumber("%g", opt.max_ate) + " m)");
 }
 
 /** Fills OldPlace::seen_after from the scene's ground-truth depth maps (one
@@ -648,7 +644,7 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
                std::to_string(near->match) + ")";
       if (!e.obj.active && near->match < 0) e.note = "inactive at " + near->name + " (which is still there)";
     } else {
-      e.note = "no " + coco::name(e.obj.class_id) + " within " + fmt("%g", opt.match_radius) + " m";
+      e.note = "no " + coco::name(e.obj.class_id) + " within " + formatNumber("%g", opt.match_radius) + " m";
     }
   }
   for (auto& g : r.gt)
@@ -709,7 +705,7 @@ std::string pad(std::string s, size_t n) {
   return s;
 }
 std::string ratio(int a, int b) {
-  return std::to_string(a) + "/" + std::to_string(b) + (b ? " = " + fmt("%.3f", double(a) / b) : "");
+  return std::to_string(a) + "/" + std::to_string(b) + (b ? " = " + formatNumber("%.3f", double(a) / b) : "");
 }
 
 ojson num(double v) {
@@ -731,13 +727,13 @@ std::string toText(const ObjectEvalResult& r) {
   o << "scene:     " << r.scene_dir << "\n";
   if (r.traj_poses) {
     o << "alignment: " << toString(r.alignment.method) << " on " << r.align_pairs << " poses";
-    if (std::isfinite(r.align_until)) o << " before " << fmt("%.3f", r.align_until) << " s";
-    o << " (ATE rmse " << fmt("%.4f", r.align_ate) << " m; all " << r.assoc_pairs << " poses: " << fmt("%.4f", r.ate)
+    if (std::isfinite(r.align_until)) o << " before " << formatNumber("%.3f", r.align_until) << " s";
+    o << " (ATE rmse " << formatNumber("%.4f", r.align_ate) << " m; all " << r.assoc_pairs << " poses: " << formatNumber("%.4f", r.ate)
       << " m)\n";
   } else {
     o << "alignment: none (no trajectory)\n";
   }
-  o << "matching:  same class, centroid within " << fmt("%g", opt.match_radius)
+  o << "matching:  same class, centroid within " << formatNumber("%g", opt.match_radius)
     << " m of the box; objects seen >= " << opt.min_visible_pixels << " px\n\n";
   o << pad("ground truth", 24) << pad("class", 14) << pad("fate", 10) << pad("seen px", 10) << pad("estimate", 10)
     << pad("box d", 8) << pad("centre d", 10) << "result\n";
@@ -748,7 +744,7 @@ std::string toText(const ObjectEvalResult& r) {
       o << pad("  " + g.name + " (" + std::to_string(g.instance_id) + ")", 24) << pad(g.cls, 14)
         << pad(toString(g.fate), 10) << pad(std::to_string(g.seen_at_end), 10)
         << pad(g.match >= 0 ? "#" + std::to_string(g.match) : "-", 10)
-        << pad(g.match >= 0 ? fmt("%.3f", g.box_dist) : "", 8) << pad(g.match >= 0 ? fmt("%.3f", g.centre_dist) : "", 10)
+        << pad(g.match >= 0 ? formatNumber("%.3f", g.box_dist) : "", 8) << pad(g.match >= 0 ? formatNumber("%.3f", g.centre_dist) : "", 10)
         << res << "\n";
     } else {
       o << pad("  " + g.name + " (" + std::to_string(g.instance_id) + ")", 24) << pad(g.cls, 14)
@@ -762,7 +758,7 @@ std::string toText(const ObjectEvalResult& r) {
         << (p.state == "active" ? " (stale)" : "");
       if (r.place_visibility)
         o << "; place " << (p.seenSince(opt.place_seen_fraction) ? "seen" : "not seen") << " since (up to "
-          << fmt("%.0f", 100 * p.seen_after) << " % in view)";
+          << formatNumber("%.0f", 100 * p.seen_after) << " % in view)";
       o << "\n";
     }
   }
@@ -786,9 +782,9 @@ std::string toText(const ObjectEvalResult& r) {
   o << "\n";
   o << "moved objects found       " << ratio(r.moved_found, r.moved_total);
   if (!r.moved_errors.empty())
-    o << "; centroid error (to box) mean " << fmt("%.3f", mean(r.moved_errors)) << " m, max "
-      << fmt("%.3f", maxOf(r.moved_errors)) << " m (target <= 0.10 m); to box centre mean "
-      << fmt("%.3f", mean(r.moved_centre_errors)) << " m";
+    o << "; centroid error (to box) mean " << formatNumber("%.3f", mean(r.moved_errors)) << " m, max "
+      << formatNumber("%.3f", maxOf(r.moved_errors)) << " m (target <= 0.10 m); to box centre mean "
+      << formatNumber("%.3f", mean(r.moved_centre_errors)) << " m";
   o << "\n";
   o << "gone objects inactive     " << ratio(r.gone_inactive, r.gone_total);
   if (r.gone_unmapped) o << " (" << r.gone_unmapped << " never mapped)";

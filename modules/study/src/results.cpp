@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 
 using json = nlohmann::ordered_json;
 
@@ -24,11 +25,6 @@ json opt(const std::optional<T>& v) {
 std::optional<double> optD(const json& j, const char* k) {
   if (!j.contains(k) || j[k].is_null()) return std::nullopt;
   return j[k].get<double>();
-}
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof(b), f, v);
-  return b;
 }
 std::string csvField(const std::string& s) {
   if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
@@ -188,15 +184,15 @@ std::string resultsCsv(const Study& st, const std::vector<CellResult>& results) 
   std::ostringstream o;
   o << "study,variant,base,dataset,seed,repeat,cell,status,ate_rmse_m,rpe_trans_rmse_m,rpe_rot_rmse_deg,tracked_pct,"
        "frames,keyframes,min_usable_keypoints,max_feature_count,median_ms,fps,peak_mb,wall_s,error\n";
-  auto num = [](const std::optional<double>& v, const char* f) { return v ? fmt(f, *v) : std::string(); };
+  auto num = [](const std::optional<double>& v, const char* f) { return v ? formatNumber(f, *v) : std::string(); };
   for (const auto& r : results) {
     o << csvField(st.name) << "," << csvField(r.variant) << "," << csvField(r.base) << "," << csvField(r.dataset) << ","
       << (r.seed ? std::to_string(*r.seed) : "") << "," << r.repeat << "," << csvField(r.cell) << "," << r.status << ","
       << num(r.ate_rmse, "%.6f") << "," << num(r.rpe_trans, "%.6f") << "," << num(r.rpe_rot, "%.4f") << ","
-      << (r.ok() ? fmt("%.2f", r.trackedPercent()) : "") << "," << r.frames << "," << r.keyframes << ","
+      << (r.ok() ? formatNumber("%.2f", r.trackedPercent()) : "") << "," << r.frames << "," << r.keyframes << ","
       << num(r.min_usable_keypoints, "%.0f") << "," << num(r.max_feature_count, "%.0f") << ","
-      << fmt("%.2f", r.median_ms) << "," << fmt("%.2f", r.fps) << "," << fmt("%.1f", r.peak_mb) << ","
-      << fmt("%.2f", r.wall_s) << "," << csvField(r.error) << "\n";
+      << formatNumber("%.2f", r.median_ms) << "," << formatNumber("%.2f", r.fps) << "," << formatNumber("%.1f", r.peak_mb) << ","
+      << formatNumber("%.2f", r.wall_s) << "," << csvField(r.error) << "\n";
   }
   return o.str();
 }
@@ -213,14 +209,14 @@ std::string ateCell(const GroupSummary* g) {
   if (!g) return "";
   if (!g->runs) return "not run";
   if (!g->ate) return g->failed == g->runs ? "failed" : "n/a";
-  std::string s = fmt("%.4f", g->ate->median);
-  if (g->ate->n > 1) s += " [" + fmt("%.4f", g->ate->min) + "-" + fmt("%.4f", g->ate->max) + "]";
-  if (g->ratio) s += " (" + fmt("%.2f", *g->ratio) + "x)";
+  std::string s = formatNumber("%.4f", g->ate->median);
+  if (g->ate->n > 1) s += " [" + formatNumber("%.4f", g->ate->min) + "-" + formatNumber("%.4f", g->ate->max) + "]";
+  if (g->ratio) s += " (" + formatNumber("%.2f", *g->ratio) + "x)";
   if (g->failed) s += " (" + std::to_string(g->failed) + " failed)";
   return s;
 }
 
-std::string med(const std::optional<Spread>& s, const char* f) { return s ? fmt(f, s->median) : std::string("-"); }
+std::string med(const std::optional<Spread>& s, const char* f) { return s ? formatNumber(f, s->median) : std::string("-"); }
 
 }  // namespace
 
@@ -251,7 +247,7 @@ std::string resultsMarkdown(const Study& st, const std::vector<CellResult>& resu
     o << "| " << mdCell(v.name) << " | " << mdCell(v.reference) << " |";
     for (const auto& d : st.datasets) o << " " << ateCell(findGroup(groups, v.name, d.name)) << " |";
     const auto mr = meanRatio(groups, v.name);
-    o << " " << (mr ? fmt("%.2fx", *mr) : std::string()) << " |\n";
+    o << " " << (mr ? formatNumber("%.2fx", *mr) : std::string()) << " |\n";
   }
 
   o << "\n## Tracking, speed and memory\n\n";

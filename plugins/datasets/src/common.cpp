@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/png.h"
@@ -96,16 +97,6 @@ std::vector<std::string> listFiles(const std::string& dir, const std::string& ex
   return out;
 }
 
-std::string fmtStamp(double t) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.6f", t);
-  return b;
-}
-
-std::string fmtNumber(double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
+std::string fmtStamp(double t) { return formatNumber("%.6f", t); }
 
 }  // namespace dslam::ds

@@ -87,7 +87,5 @@ std::vector<std::string> listFiles(const std::string& dir, const std::string& ex
 
 /** "%.6f" */
 std::string fmtStamp(double t);
-/** A number in messages, shortest form (%g). */
-std::string fmtNumber(double v);
 
 }  // namespace dslam::ds

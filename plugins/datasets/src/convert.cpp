@@ -16,6 +16,7 @@
 #include "dslam/config/camera_yaml.h"
 #include "dslam/core/camera_presets.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/log.h"
 #include "dslam/core/params.h"
 #include "dslam/core/paths.h"
@@ -124,9 +125,10 @@ ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& o
     k.width = rgb.cols;
     k.height = rgb.rows;
     if (!k.principalPointInside())
-      throw DataError(rep.camera + ": its principal point (" + ds::fmtNumber(k.cx) + ", " + ds::fmtNumber(k.cy) +
-                      ") lies outside the " + std::to_string(k.width) + "x" + std::to_string(k.height) + " images of " +
-                      in_dir + ": not the camera of these images (give --camera FILE)");
+      throw DataError(rep.camera + ": its principal point (" + formatNumber("%g", k.cx) + ", " +
+                      formatNumber("%g", k.cy) + ") lies outside the " + std::to_string(k.width) + "x" +
+                      std::to_string(k.height) + " images of " + in_dir +
+                      ": not the camera of these images (give --camera FILE)");
     obs->cameraParamsIntensity = rawlog::toTCamera(k, cam.name.empty() ? "rgbd" : cam.name);
     obs->cameraParams = obs->cameraParamsIntensity;  // TUM depth is registered to the RGB camera
     obs->relativePoseIntensityWRTDepth = mrpt::poses::CPose3D(0, 0, 0, mrpt::DEG2RAD(-90.0), 0, mrpt::DEG2RAD(-90.0));

@@ -10,6 +10,7 @@
 
 #include "common.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/yaml_util.h"
@@ -98,9 +99,9 @@ EurocCameraInfo readEurocSensorYaml(const std::string& file) {
   info.cam.width = static_cast<int>(res[0]);
   info.cam.height = static_cast<int>(res[1]);
   if (!info.cam.principalPointInside())
-    throw DataError(file + ": 'intrinsics' principal point (" + ds::fmtNumber(info.cam.cx) + ", " + ds::fmtNumber(info.cam.cy) +
-                    ") lies outside the " + std::to_string(info.cam.width) + "x" + std::to_string(info.cam.height) +
-                    " image of 'resolution'");
+    throw DataError(file + ": 'intrinsics' principal point (" + formatNumber("%g", info.cam.cx) + ", " +
+                    formatNumber("%g", info.cam.cy) + ") lies outside the " + std::to_string(info.cam.width) + "x" +
+                    std::to_string(info.cam.height) + " image of 'resolution'");
   const node_t* tn = yamlu::findValue(root, "T_BS");
   if (!tn) throw DataError(file + ": missing key 'T_BS' (" + kEurocLayout + ")");
   const auto T = numbers(tn->isMap() ? yamlu::findValue(*tn, "data") : tn, file, "T_BS.data");

@@ -8,6 +8,7 @@
 
 #include "common.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/log.h"
 #include "dslam/core/paths.h"
 #include "dslam/core/png.h"
@@ -134,8 +135,8 @@ CameraModel kittiCamera(const std::string& cf, const std::string& pl, const std:
   }
   if (cam.left.width == 0) throw DataError("KITTI: cannot read any of the first images in " + left_dir);
   if (!cam.left.principalPointInside())
-    throw DataError(cf + ": matrix " + pl + " puts the principal point (" + ds::fmtNumber(cam.left.cx) + ", " +
-                    ds::fmtNumber(cam.left.cy) + ") outside the " + std::to_string(cam.left.width) + "x" +
+    throw DataError(cf + ": matrix " + pl + " puts the principal point (" + formatNumber("%g", cam.left.cx) + ", " +
+                    formatNumber("%g", cam.left.cy) + ") outside the " + std::to_string(cam.left.width) + "x" +
                     std::to_string(cam.left.height) + " images of " + left_dir);
   cam.right = cam.left;
   cam.T_left_right = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(cam.baseline, 0, 0));
