@@ -102,13 +102,10 @@ void train(const TrainOpts& o) {
   // The output must not replace a file of the training input (an image, a dataset file).
   std::error_code ec;
   if (fs::is_regular_file(o.out, ec)) {
-    const fs::path out = fs::weakly_canonical(o.out, ec);
     std::vector<std::string> inputs = o.images;
     inputs.insert(inputs.end(), o.datasets.begin(), o.datasets.end());
     for (const auto& in : inputs) {
-      const fs::path dir = fs::weakly_canonical(in, ec);
-      const auto rel = out.lexically_relative(dir);
-      if (out == dir || (!rel.empty() && *rel.begin() != ".."))
+      if (isInside(o.out, in))
         throw ConfigError("--out " + o.out + " is a file of the training input " + in +
                           ": it would be overwritten; choose another name");
     }

@@ -72,6 +72,13 @@ void requireFile(const std::string& p, const std::string& what, const std::strin
     throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));
 }
 
+bool isInside(const std::string& path, const std::string& dir) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(path, ec), d = fs::weakly_canonical(dir, ec);
+  const fs::path rel = p.lexically_relative(d);
+  return !rel.empty() && *rel.begin() != "..";
+}
+
 void requireDir(const std::string& p, const std::string& what, const std::string& hint) {
   if (!dirExists(p))
     throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));

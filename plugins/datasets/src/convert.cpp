@@ -52,14 +52,12 @@ struct NoJpeg {
 
 ConvertReport convertTumToRawlog(const std::string& in_dir, const std::string& out_rawlog,
                                  const TumToRawlogOptions& opt) {
-  {  // never write over the dataset's own files (rgb.txt, groundtruth.txt, images)
-    std::error_code ec;
-    const fs::path o = fs::weakly_canonical(out_rawlog, ec), d = fs::weakly_canonical(in_dir, ec);
-    const auto rel = o.lexically_relative(d);
-    if (fs::exists(o) && !rel.empty() && *rel.begin() != ".." && o.extension() != ".rawlog")
-      throw DataError("output " + out_rawlog + " is a file of the dataset folder " + in_dir +
-                      "; refusing to overwrite it (the output is a new .rawlog file)");
-  }
+  // never write over the dataset's own files (rgb.txt, groundtruth.txt, images), also through a symlink
+  std::error_code ec;
+  if (fs::exists(out_rawlog) && isInside(out_rawlog, in_dir) &&
+      fs::weakly_canonical(out_rawlog, ec).extension() != ".rawlog")
+    throw DataError("output " + out_rawlog + " is a file of the dataset folder " + in_dir +
+                    "; refusing to overwrite it (the output is a new .rawlog file)");
   TumDataset tum;
   tum.configure(readerParams(tum.paramSpecs(), {{"path", in_dir},
                                                 {"associations", opt.associations},

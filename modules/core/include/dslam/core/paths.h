@@ -20,6 +20,9 @@ std::string installDataDir();
 /** Resolves `p` against `base_dir` unless absolute; expands a leading "~/". */
 std::string resolvePath(const std::string& p, const std::string& base_dir);
 bool fileExists(const std::string& p);
+/** Whether `path` is the folder `dir` or lies inside it, after resolving
+ *  symlinks, "." and ".." (neither needs to exist). */
+bool isInside(const std::string& path, const std::string& dir);
 bool dirExists(const std::string& p);
 /** Throws DataError("<what> not found: <path>" + hint) if missing. */
 void requireFile(const std::string& p, const std::string& what, const std::string& hint = "");
