@@ -1,5 +1,6 @@
 // dslam: command-line entry point. Sub-commands live in cmd_*.cpp.
 #include <algorithm>
+#include <filesystem>
 #include <iostream>
 
 #include "command.h"
@@ -43,6 +44,12 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << std::endl;
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // "filesystem error: status: Too many levels of symbolic links [x]" -> "x: Too many levels of symbolic links"
+    std::string paths = e.path1().string();
+    if (!e.path2().empty()) paths += " -> " + e.path2().string();
+    std::cerr << "error: " << (paths.empty() ? std::string() : paths + ": ") << e.code().message() << std::endl;
     return 1;
   } catch (const std::exception& e) {  // a library's exception (MRPT, OpenCV): its message line, not its backtrace
     std::cerr << "error: " << exceptionSummary(e, 1000) << std::endl;

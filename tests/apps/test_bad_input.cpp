@@ -200,6 +200,12 @@ std::vector<Case> cases() {
   c.push_back({"dataset", "folder does not exist",
                [](const std::string& d) { return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/nowhere") + " --out " + q(d + "/out"); },
                1, {"dataset not found", "nowhere"}});
+  c.push_back({"dataset", "a symbolic link that points to itself (a loop)",
+               [](const std::string& d) {
+                 fs::create_symlink(d + "/loop", d + "/loop");
+                 return "run " + q(source(kBaseline)) + " --dataset " + q(d + "/loop") + " --out " + q(d + "/out");
+               },
+               1, {"$DIR/loop: Too many levels of symbolic links"}});
   c.push_back({"output folder", "`--out` is a file",
                [](const std::string& d) {
                  writeFile(d + "/afile", "x\n");
@@ -375,6 +381,11 @@ std::vector<Case> cases() {
                  return "eval ate " + q(d + "/nothere.txt") + " " + q(tinyScene() + "/groundtruth.txt");
                },
                1, {"ground-truth trajectory file not found", "nothere.txt"}});
+  c.push_back({"`dslam eval` estimate", "a file name longer than the file system allows",
+               [](const std::string& d) {
+                 return "eval ate " + q(tinyScene() + "/groundtruth.txt") + " " + q(d + "/" + std::string(300, 'e'));
+               },
+               1, {"/eee", ": File name too long"}});
   c.push_back({"`dslam eval` estimate", "a field that is not a number",
                [](const std::string& d) {
                  writeFile(d + "/est.txt", "1000.0 0 0 0 0 0 0 1\n1000.1 0 x 0 0 0 0 1\n");
@@ -557,6 +568,15 @@ std::vector<Case> cases() {
                  return "detect HogPeopleDetector " + q(d + "/a/x.png") + " " + q(d + "/b/x.png") + " --out " + q(d + "/o");
                },
                1, {"--out $DIR/o: ", "/a/x.png and ", "/b/x.png would both be written to ", "/o/x_det.png"}});
+  c.push_back({"image given to `dslam detect`", "JPEG cut short (libjpeg would decode it with a grey bottom half)",
+               [](const std::string& d) {
+                 const cv::Mat img = cv::imread(nthFile(tinyScene() + "/rgb", 0), cv::IMREAD_COLOR);
+                 cv::imwrite(d + "/x.jpg", img);
+                 const std::string jpg = readFile(d + "/x.jpg");
+                 writeFile(d + "/x.jpg", jpg.substr(0, jpg.size() / 2));
+                 return "detect HogPeopleDetector " + q(d + "/x.jpg");
+               },
+               1, {"cannot read image", "(corrupt JPEG: truncated: the file (", "ends inside the image data"}});
   c.push_back({"image given to `dslam detect`", "a folder",
                [](const std::string& d) { return "detect HogPeopleDetector " + q(d); }, 1,
                {"cannot read image", "(a folder, not an image file)"}});
@@ -692,7 +712,8 @@ TEST(BadInput, EveryCaseGivesItsMessageAndDocsErrorsIsCurrent) {
       EXPECT_NE(msg.find(want), std::string::npos) << "'" << want << "' not in: " << msg;
     }
     // No crash, no stack trace, no exception dump.
-    for (const char* bad : {"terminate called", "Segmentation", "MRPT exception", "Aborted", "backtrace", "libpng"})
+    for (const char* bad : {"terminate called", "Segmentation", "MRPT exception", "Aborted", "backtrace", "libpng",
+                            "Premature end of JPEG"})
       EXPECT_EQ(r.out.find(bad), std::string::npos) << bad << " in:\n" << r.out;
     md << "| " << mdCell(c.input) << " | " << mdCell(c.wrong) << " | `dslam " << mdCell(normalize(args, dir))
        << "` | `" << mdCell(normalize(msg, dir)) << "` | " << r.exit_code << " |\n";

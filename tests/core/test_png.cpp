@@ -202,3 +202,36 @@ TEST(Png, DamagedFilesSayWhyAndAreNotPassedToLibpng) {
   EXPECT_EQ(unreadableImageReason(""), "corrupt or unsupported image");
   EXPECT_EQ(unreadableImageReason("corrupt PNG: CRC error"), "corrupt PNG: CRC error");
 }
+
+TEST(Png, TruncatedJpegsAreDamagedNotHalfGrey) {
+  // libjpeg decodes a JPEG cut short into a frame whose missing part is
+  // grey (printing only "Premature end of JPEG file"): readImageFile walks
+  // the markers first and refuses it.
+  const std::string dir = test::tempDir("jpeg_damaged");
+  const cv::Mat rgb = testImage(CV_8UC3, 9);
+  for (const bool progressive : {false, true}) {
+    const std::string name = progressive ? "/p.jpg" : "/b.jpg";
+    ASSERT_TRUE(cv::imwrite(dir + name, rgb, {cv::IMWRITE_JPEG_PROGRESSIVE, progressive ? 1 : 0,
+                                              cv::IMWRITE_JPEG_RST_INTERVAL, progressive ? 0 : 2}));
+    const std::string good = test::readFile(dir + name);
+    std::string why = "x";
+    EXPECT_TRUE(identical(readImageFile(dir + name, cv::IMREAD_COLOR, &why), cv::imread(dir + name, cv::IMREAD_COLOR)));
+    EXPECT_EQ(why, "") << name;
+    // Bytes after the end-of-image marker are ignored, as libjpeg does.
+    test::writeFile(dir + "/tail.jpg", good + std::string("\0\0garbage\xff", 10));
+    EXPECT_FALSE(readImageFile(dir + "/tail.jpg", cv::IMREAD_COLOR, &why).empty());
+    EXPECT_EQ(why, "");
+    for (const size_t cut : {good.size() - 2, good.size() * 3 / 4, good.size() / 2, size_t(20), size_t(3)}) {
+      test::writeFile(dir + "/cut.jpg", good.substr(0, cut));
+      testing::internal::CaptureStderr();
+      EXPECT_TRUE(readImageFile(dir + "/cut.jpg", cv::IMREAD_COLOR, &why).empty()) << name << " cut at " << cut;
+      EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+      EXPECT_EQ(why.rfind("corrupt JPEG: truncated: the file (" + std::to_string(cut) + " bytes) ends ", 0), 0u)
+          << why;
+    }
+  }
+  test::writeFile(dir + "/len.jpg", std::string("\xff\xd8\xff\xe0\x00\x01", 6));
+  std::string why;
+  EXPECT_TRUE(readImageFile(dir + "/len.jpg", cv::IMREAD_COLOR, &why).empty());
+  EXPECT_EQ(why, "corrupt JPEG: segment length 1 at byte 4");
+}

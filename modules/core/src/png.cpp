@@ -92,8 +92,73 @@ bool unfilter(int type, unsigned char* c, const unsigned char* p, size_t row, si
 /** Larger images are refused before decoding (no camera comes near). */
 constexpr uint64_t kMaxPixels = uint64_t(1) << 28;
 
+namespace {
+
+/** Why the JPEG in `f` is damaged, or "" when it is whole or not a JPEG.
+ *  Walks the markers from SOI to EOI: every segment's length, and the
+ *  entropy-coded data after each SOS up to its next marker. libjpeg decodes
+ *  a file cut short into a picture whose missing part is grey, printing
+ *  only "Premature end of JPEG file" to stderr, so a truncated frame would
+ *  otherwise be tracked as if the scene had turned grey. */
+std::string jpegDamage(const std::vector<unsigned char>& f) {
+  if (f.size() < 3 || f[0] != 0xff || f[1] != 0xd8 || f[2] != 0xff) return "";
+  const size_t n = f.size();
+  auto truncated = [&](const std::string& where) {
+    return "corrupt JPEG: truncated: the file (" + std::to_string(n) + " bytes) ends " + where +
+           ", before the end-of-image marker";
+  };
+  size_t pos = 2;
+  while (true) {
+    if (pos >= n) return truncated("after byte " + std::to_string(n));
+    if (f[pos] != 0xff) return "corrupt JPEG: no marker at byte " + std::to_string(pos);
+    while (pos < n && f[pos] == 0xff) pos++;  // fill bytes
+    if (pos >= n) return truncated("inside a marker");
+    const unsigned m = f[pos++];
+    if (m == 0xd9) return "";  // EOI; anything after it is ignored, as libjpeg does
+    if (m == 0x01 || (m >= 0xd0 && m <= 0xd7)) continue;  // no length
+    if (pos + 2 > n) return truncated("inside a segment header");
+    const size_t len = (size_t(f[pos]) << 8) | f[pos + 1];
+    if (len < 2) return "corrupt JPEG: segment length " + std::to_string(len) + " at byte " + std::to_string(pos);
+    if (pos + len > n)
+      return truncated("inside a segment of " + std::to_string(len) + " bytes at byte " + std::to_string(pos - 2));
+    pos += len;
+    if (m != 0xda) continue;
+    // Entropy-coded data: 0xff is followed by 0x00 (a stuffed byte) or a
+    // restart marker inside it; anything else starts the next segment.
+    while (true) {
+      const void* ff = std::memchr(&f[pos], 0xff, n - pos);
+      if (!ff) return truncated("inside the image data");
+      pos = static_cast<size_t>(static_cast<const unsigned char*>(ff) - f.data());
+      if (pos + 1 >= n) return truncated("inside the image data");
+      const unsigned next = f[pos + 1];
+      if (next == 0x00 || (next >= 0xd0 && next <= 0xd7) || next == 0xff) {
+        pos += next == 0xff ? 1 : 2;
+        continue;
+      }
+      break;
+    }
+  }
+}
+
+/** readPngFast on the bytes of the file. */
+cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string* damage);
+
+}  // namespace
+
 cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
-  thread_local std::vector<unsigned char> file, idat, raw;
+  thread_local std::vector<unsigned char> file;
+  if (damage) damage->clear();
+  if (std::string not_file; !readFile(path, file, not_file)) {
+    if (damage) *damage = not_file;
+    return {};
+  }
+  return decodePng(file, flags, damage);
+}
+
+namespace {
+
+cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string* damage) {
+  thread_local std::vector<unsigned char> idat, raw;
   if (damage) damage->clear();
   // A damaged PNG (libpng would fail on it too, after printing its own
   // "libpng error: ..." line): says why and returns nothing.
@@ -106,10 +171,6 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
     for (int i = 0; i < 4; i++) n += std::isalpha(t[i]) ? static_cast<char>(t[i]) : '?';
     return n;
   };
-  if (std::string not_file; !readFile(path, file, not_file)) {
-    if (damage) *damage = not_file;
-    return {};
-  }
   static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (file.size() < 8 + 25 || std::memcmp(file.data(), kSig, 8) != 0) return {};
   // Chunks: IHDR first, IDATs, IEND; ancillary chunks that change what
@@ -204,11 +265,19 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
   return out;
 }
 
+}  // namespace
+
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
+  thread_local std::vector<unsigned char> file;
   std::string why;
-  cv::Mat m = readPngFast(path, flags, &why);
+  cv::Mat m;
+  if (readFile(path, file, why)) {
+    m = decodePng(file, flags, &why);
+    if (m.empty() && why.empty()) why = jpegDamage(file);
+    if (m.empty() && why.empty()) m = cv::imread(path, flags);
+  }
   if (damage) *damage = why;
-  return m.empty() && why.empty() ? cv::imread(path, flags) : m;
+  return m;
 }
 
 std::string unreadableImageReason(const std::string& damage) {

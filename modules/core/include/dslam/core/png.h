@@ -31,12 +31,15 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nu
  *  it is not passed on to cv::imread, whose libpng would print its own
  *  "libpng error: ..." line to stderr before failing as well. So does a
  *  PNG of more than 2^28 pixels (a decompression bomb: a few MB of file
- *  that cv::imread would decode into gigabytes), and a path that is not a
- *  regular file (a folder, a FIFO cv::imread would wait on). */
+ *  that cv::imread would decode into gigabytes), a JPEG whose markers end
+ *  before its end-of-image marker (cut short: libjpeg would decode it into
+ *  a frame with a grey bottom part and only print "Premature end of JPEG
+ *  file"), and a path that is not a regular file (a folder, a FIFO
+ *  cv::imread would wait on). */
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage = nullptr);
 
 /** Why readImageFile gave nothing, for messages: its `damage` ("corrupt
- *  PNG: ...", "PNG of WxH pixels: more than ...") or "corrupt or
+ *  PNG: ...", "corrupt JPEG: ...", "PNG of WxH pixels: more than ...") or "corrupt or
  *  unsupported image". */
 std::string unreadableImageReason(const std::string& damage);
 
