@@ -5,7 +5,14 @@
 #include <iostream>
 
 #include "command.h"
+#include "dslam/core/log.h"
 #include "dslam/dense/dense_eval.h"
+
+namespace {
+/** Keyframe positions further than this from the scene's camera path after
+ *  alignment (RMS, metres) are warned about. */
+constexpr double kAlignmentWarn = 0.25;
+}  // namespace
 
 void setupEvalDense(CLI::App& eval) {
   struct Opt {
@@ -33,6 +40,10 @@ void setupEvalDense(CLI::App& eval) {
     dslam::dense::DenseEvalOptions eo;
     eo.frame_step = o.frame_step;
     const auto r = dslam::dense::evaluateDense(m, s, eo);
+    if (r.alignment_rmse > kAlignmentWarn)
+      DSLAM_LOG(Warn, bt << ": after alignment the map's keyframes lie " << r.alignment_rmse
+                         << " m (RMS) from the scene's camera path: a map of another scene, or of a run that lost "
+                            "its way; the scores below are not meaningful");
     if (o.json) {
       std::cout << dslam::dense::toJson(r) << std::endl;
     } else {

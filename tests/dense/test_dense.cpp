@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <set>
 #include <tuple>
@@ -462,4 +463,66 @@ TEST(DenseEval, LoadRefusesInconsistentFiles) {
   EXPECT_NE(errorOf().find("'max_range' must be a number > 0"), std::string::npos) << errorOf();
   write(0.05, R"({"resolution": 0.05, "max_range": 4})");
   EXPECT_NE(errorOf().find("dense.json: key 'keyframes' not found"), std::string::npos) << errorOf();
+}
+
+// A map made on another scene, or a --scenario of another scene, is refused
+// instead of scored against geometry it was never made in.
+TEST(DenseEval, RefusesAMapOrAScenarioOfAnotherScene) {
+  const synth::Scenario s = synth::parseScenario(kScene);
+  const synth::SceneModel scene(s);
+  DenseMapFile m;
+  m.keyframes.push_back({0, 0.0, scene.cameraPose(0)});
+  m.occupied.emplace_back(0.0, -1.525, 0.025);
+  auto errorOf = [&](const DenseMapFile& map) {
+    try {
+      evaluateDense(map, s);
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorOf(m), "");  // no dataset recorded (dense.json of older runs): evaluated
+  m.dataset_path = "/data/dense_eval";
+  m.dataset_scenario = "dense_eval";
+  m.dataset_seed = 5;
+  m.dataset_frames = 120;
+  EXPECT_EQ(errorOf(m), "");
+  for (const auto& [scenario, seed, frames] : {std::tuple{"shift", 5, 120}, {"dense_eval", 6, 120}, {"dense_eval", 5, 60}}) {
+    DenseMapFile other = m;
+    other.dataset_scenario = scenario;
+    other.dataset_seed = static_cast<uint64_t>(seed);
+    other.dataset_frames = frames;
+    EXPECT_EQ(errorOf(other), "the dense map was made on the scene /data/dense_eval (scenario '" +
+                                  std::string(scenario) + "', seed " + std::to_string(seed) + ", " +
+                                  std::to_string(frames) +
+                                  " frames), not on this one (scenario 'dense_eval', seed 5, 120 frames)");
+  }
+
+  // sceneScenario: the scenario file must be the one the scene was rendered from.
+  const std::string d = test::tempDir("dense_scenario");
+  test::writeFile(d + "/dense_eval.yaml", kScene);
+  std::string other = kScene;
+  other.replace(other.find("name: dense_eval"), 16, "name: other_room");
+  test::writeFile(d + "/other.yaml", other);
+  std::string renamed = kScene;
+  renamed.replace(renamed.find("name: crate"), 11, "name: chest");
+  test::writeFile(d + "/renamed.yaml", renamed);
+  std::filesystem::create_directories(d + "/scene");
+  test::writeFile(d + "/scene/objects.json",
+                  R"({"scenario": "dense_eval", "source": "../dense_eval.yaml", "seed": 5, "frames": 120,
+                      "objects": [{"name": "crate"}], "people": [{"name": "walker"}]})");
+  EXPECT_EQ(sceneScenario(d + "/scene").name, "dense_eval");
+  auto scenarioError = [&](const std::string& file) {
+    try {
+      sceneScenario(d + "/scene", file);
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(scenarioError(d + "/dense_eval.yaml"), "");
+  EXPECT_EQ(scenarioError(d + "/other.yaml"), d + "/other.yaml: scenario 'other_room' is not the scene " + d +
+                                                  "/scene's: the scene was rendered from scenario 'dense_eval'");
+  EXPECT_NE(scenarioError(d + "/renamed.yaml").find("its objects differ from the scene's"), std::string::npos)
+      << scenarioError(d + "/renamed.yaml");
 }

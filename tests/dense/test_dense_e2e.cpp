@@ -31,6 +31,8 @@ dense::DenseEvalResult runAndEvaluate(const std::string& scene, const std::strin
   ov.quiet_progress = true;
   *sum = runPipeline(pc, ov);
   const dense::DenseMapFile m = dense::loadDenseMap(out + "/map.bt");
+  EXPECT_EQ(m.dataset_scenario, "walking_xyz");  // dense.json names the scene, for eval dense's check
+  EXPECT_EQ(m.dataset_frames, 150);
   return dense::evaluateDense(m, dense::sceneScenario(scene));
 }
 

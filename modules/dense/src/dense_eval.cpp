@@ -117,6 +117,13 @@ DenseMapFile loadDenseMap(const std::string& bt_path, const std::string& json_pa
     m.max_range = j.at("max_range").get<double>();
     if (!(m.max_range > 0)) throw DataError(jp + ": 'max_range' must be a number > 0, got " + j["max_range"].dump());
     m.min_range = j.value("min_range", 0.0);
+    if (j.contains("dataset")) {
+      const json& d = j.at("dataset");
+      m.dataset_path = d.value("path", "");
+      m.dataset_scenario = d.value("scenario", "");
+      if (d.contains("seed")) m.dataset_seed = d.at("seed").get<uint64_t>();
+      m.dataset_frames = d.value("frames", 0);
+    }
     for (const json& k : j.at("keyframes")) {
       if (!k.value("integrated", false)) continue;
       DenseMapFile::KeyFrame kf;
@@ -162,10 +169,47 @@ synth::Scenario sceneScenario(const std::string& scene_dir, const std::string& s
   ov.width = j.value("width", 0);
   ov.height = j.value("height", 0);
   if (j.contains("seed")) ov.seed = j.at("seed").get<uint64_t>();
-  return synth::loadScenario(src, ov);
+  synth::Scenario s = synth::loadScenario(src, ov);
+  // A scenario of another scene would evaluate the map against geometry it
+  // was never made in: the scene's own record must name the same scenario
+  // and the same objects and people.
+  auto names = [&](const char* key) {
+    std::vector<std::string> n;
+    if (j.contains(key) && j.at(key).is_array())
+      for (const auto& o : j.at(key))
+        if (o.is_object()) n.push_back(o.value("name", ""));
+    return n;
+  };
+  std::vector<std::string> objects, people;
+  for (const auto& o : s.objects) objects.push_back(o.name);
+  for (const auto& p : s.people) people.push_back(p.name);
+  const std::string rendered = j.value("scenario", "");
+  std::string differs;
+  if (!rendered.empty() && rendered != s.name)
+    differs = "the scene was rendered from scenario '" + rendered + "'";
+  else if (names("objects") != objects)
+    differs = "its objects differ from the scene's (" + std::to_string(objects.size()) + " against " +
+              std::to_string(names("objects").size()) + " in " + oj.string() + ")";
+  else if (names("people") != people)
+    differs = "its people differ from the scene's (" + std::to_string(people.size()) + " against " +
+              std::to_string(names("people").size()) + " in " + oj.string() + ")";
+  if (!differs.empty())
+    throw DataError(src + ": scenario '" + s.name + "' is not the scene " + scene_dir + "'s: " + differs);
+  return s;
 }
 
 DenseEvalResult evaluateDense(const DenseMapFile& map, const synth::Scenario& s, const DenseEvalOptions& o) {
+  if (!map.dataset_scenario.empty() &&
+      (map.dataset_scenario != s.name || (map.dataset_seed && *map.dataset_seed != s.seed) ||
+       (map.dataset_frames > 0 && map.dataset_frames != s.frames))) {
+    auto what = [](const std::string& name, std::optional<uint64_t> seed, int frames) {
+      return "scenario '" + name + "'" + (seed ? ", seed " + std::to_string(*seed) : std::string()) +
+             (frames > 0 ? ", " + std::to_string(frames) + " frames" : std::string());
+    };
+    throw DataError("the dense map was made on the scene " + map.dataset_path + " (" +
+                    what(map.dataset_scenario, map.dataset_seed, map.dataset_frames) + "), not on this one (" +
+                    what(s.name, s.seed, s.frames) + ")");
+  }
   const synth::SceneModel scene(s);
   DenseEvalResult r;
   const double res = map.resolution;
@@ -174,7 +218,8 @@ DenseEvalResult evaluateDense(const DenseMapFile& map, const synth::Scenario& s,
   r.occupied = map.occupied.size();
   if (map.occupied.empty())
     throw DataError("the dense map has no occupied voxels: nothing to evaluate (accuracy and completeness would "
-                    "read as perfect and as 0)");
+                    "read as perfect and as 0); it integrated " + std::to_string(map.keyframes.size()) +
+                    " keyframe(s), and with the default sensor model a voxel is occupied once two keyframes hit it");
 
   // Alignment of the map frame onto the scene: chordal mean of the
   // rotations GT_i * EST_i^-1, then the translation of the mean positions.

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <mutex>
 #include <unordered_map>
@@ -442,6 +443,19 @@ void DenseMapper::writeJson(const std::string& path) const {
   j["preprocess_ms_max"] = s.preprocess_ms_max;
   j["integrate_s"] = s.integrate_s;
   j["producer_wait_s"] = s.producer_wait_s;
+  if (!dataset_root_.empty()) {
+    std::error_code ec;
+    const fs::path root = fs::absolute(dataset_root_, ec);
+    json d = {{"path", (ec ? fs::path(dataset_root_) : root).string()}};
+    std::ifstream in(fs::path(dataset_root_) / "objects.json");
+    const json scene = in ? json::parse(in, nullptr, /*allow_exceptions=*/false) : json();
+    if (scene.is_object() && scene.contains("scenario") && scene["scenario"].is_string()) {
+      d["scenario"] = scene["scenario"];
+      if (scene.contains("seed") && scene["seed"].is_number_unsigned()) d["seed"] = scene["seed"];
+      if (scene.contains("frames") && scene["frames"].is_number_integer()) d["frames"] = scene["frames"];
+    }
+    j["dataset"] = std::move(d);
+  }
   json kfs = json::array();
   for (const KeyframeCloud& kc : kfs_) {
     json k;

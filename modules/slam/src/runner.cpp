@@ -208,6 +208,7 @@ std::unique_ptr<dense::DenseMapper> startDenseMap(const config::PipelineConfig& 
   auto d = std::make_unique<dense::DenseMapper>(sys.camera(), cam,
                                                 dense::DenseMapParams::fromParams(pc.sections.at("dense_map")),
                                                 /*threaded=*/true);
+  d->setDatasetRoot(reader.root());
   if (first < reader.size()) {
     SensorFrame f;
     try {

@@ -34,6 +34,12 @@ struct DenseMapFile {
     SE3 T_wc;  ///< map frame
   };
   std::vector<KeyFrame> keyframes;  ///< the integrated keyframes
+  /** The dataset of the run (dense.json "dataset"; empty in files written
+   *  before it was recorded) and, for a `dslam synth` scene, its scenario,
+   *  seed and frame count. */
+  std::string dataset_path, dataset_scenario;
+  std::optional<uint64_t> dataset_seed;
+  int dataset_frames = 0;
 };
 
 /** Reads an OctoMap binary file and its dense.json (default: beside it).

@@ -167,6 +167,10 @@ class DenseMapper {
   void writePly(const std::string& path) const;      ///< occupied voxel centres, coloured
   void writeViews(const std::string& top_png, const std::string& side_png, const Trajectory& trajectory) const;
   void writeJson(const std::string& path) const;
+  /** The dataset folder the run reads: dense.json names it and, for a
+   *  `dslam synth` scene, its scenario, seed and frame count, so that
+   *  `dslam eval dense` can refuse another scene. */
+  void setDatasetRoot(const std::string& dir) { dataset_root_ = dir; }
 
   std::vector<Voxel> occupiedVoxels() const;
   const DenseStats& stats() const { return stats_; }
@@ -187,6 +191,7 @@ class DenseMapper {
   std::vector<KeyframeCloud> kfs_;
   std::map<int, SE3> poses_;  ///< poses of the last integrate()
   DenseStats stats_;
+  std::string dataset_root_;
   void store(KeyframeCloud&& kc);
 };
 
