@@ -235,3 +235,59 @@ TEST(Png, TruncatedJpegsAreDamagedNotHalfGrey) {
   EXPECT_TRUE(readImageFile(dir + "/len.jpg", cv::IMREAD_COLOR, &why).empty());
   EXPECT_EQ(why, "corrupt JPEG: segment length 1 at byte 4");
 }
+
+TEST(Png, DamageInLayoutsLeftToImreadIsFoundToo) {
+  // Layouts the fast decoder does not decode (16-bit colour, 1-bit grey,
+  // grey read as colour) still go through its chunk walk and an inflate of
+  // their image data, so damage there is reported without libpng's line.
+  const std::string dir = test::tempDir("png_declined_damage");
+  const cv::Mat rgb16 = testImage(CV_16UC3, 5), grey = testImage(CV_8UC1, 6);
+  ASSERT_TRUE(cv::imwrite(dir + "/c16.png", rgb16));
+  ASSERT_TRUE(cv::imwrite(dir + "/bits.png", grey, {cv::IMWRITE_PNG_BILEVEL, 1}));
+  ASSERT_TRUE(cv::imwrite(dir + "/g.png", grey));
+  struct Case {
+    std::string file;
+    int flags;
+  };
+  for (const Case& c : {Case{"c16.png", cv::IMREAD_UNCHANGED}, Case{"bits.png", cv::IMREAD_UNCHANGED},
+                        Case{"g.png", cv::IMREAD_COLOR}}) {
+    const std::string good = test::readFile(dir + "/" + c.file);
+    std::string why = "x";
+    EXPECT_TRUE(identical(readImageFile(dir + "/" + c.file, c.flags, &why), cv::imread(dir + "/" + c.file, c.flags)))
+        << c.file;
+    EXPECT_EQ(why, "") << c.file;
+    const size_t idat = good.find("IDAT") - 4;
+    const uint32_t len = be32(reinterpret_cast<const unsigned char*>(good.data()) + idat);
+    auto damageOf = [&](const std::string& bytes) {
+      test::writeFile(dir + "/bad.png", bytes);
+      std::string d;
+      testing::internal::CaptureStderr();
+      EXPECT_TRUE(readImageFile(dir + "/bad.png", c.flags, &d).empty()) << c.file;
+      EXPECT_EQ(testing::internal::GetCapturedStderr(), "") << c.file;
+      return d;
+    };
+    std::string flip = good;
+    flip[idat + 8 + len / 2] = static_cast<char>(flip[idat + 8 + len / 2] ^ 0x5a);
+    EXPECT_EQ(damageOf(flip), "corrupt PNG: CRC error in chunk IDAT at byte " + std::to_string(idat)) << c.file;
+    EXPECT_EQ(damageOf(good.substr(0, idat + 8 + len / 2)).rfind("corrupt PNG: truncated: chunk IDAT of ", 0), 0u)
+        << c.file;
+    // Image data that does not inflate, its CRC made to match.
+    std::string bad = good;
+    for (uint32_t i = 2; i < len; i++) bad[idat + 8 + i] = static_cast<char>(0xff);
+    const uint32_t crc = libdeflate_crc32(0, bad.data() + idat + 4, len + 4);
+    for (int k = 0; k < 4; k++) bad[idat + 8 + len + k] = static_cast<char>(crc >> (24 - 8 * k));
+    EXPECT_EQ(damageOf(bad), "corrupt PNG: the image data (IDAT) is not a valid zlib stream") << c.file;
+  }
+  // A header libpng refuses: bit depth 3.
+  std::string hdr = test::readFile(dir + "/g.png");
+  hdr[24] = 3;
+  const uint32_t crc = libdeflate_crc32(0, hdr.data() + 12, 17);
+  for (int k = 0; k < 4; k++) hdr[29 + k] = static_cast<char>(crc >> (24 - 8 * k));
+  test::writeFile(dir + "/hdr.png", hdr);
+  std::string why;
+  testing::internal::CaptureStderr();
+  EXPECT_TRUE(readImageFile(dir + "/hdr.png", cv::IMREAD_UNCHANGED, &why).empty());
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(why, "corrupt PNG: invalid header (IHDR): 77x61 pixels, colour type 0, bit depth 3, compression 0, "
+                 "filter 0, interlace 0");
+}

@@ -174,11 +174,14 @@ cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string
   static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (file.size() < 8 + 25 || std::memcmp(file.data(), kSig, 8) != 0) return {};
   // Chunks: IHDR first, IDATs, IEND; ancillary chunks that change what
-  // cv::imread returns (tRNS adds alpha, eXIf rotates) or unknown critical
-  // ones make us decline.
+  // cv::imread returns (tRNS adds alpha, eXIf rotates), unknown critical
+  // ones (PLTE) and layouts decoded below only in part (interlaced,
+  // palette, 16-bit colour, grey with alpha) make us decline, but only after
+  // every chunk's length and CRC and the image data's zlib stream are
+  // checked: cv::imread would print libpng's error line for those too.
   uint32_t w = 0, h = 0;
   int depth = 0, color = -1;
-  bool ended = false;
+  bool ended = false, decline = false, interlaced = false;
   idat.clear();
   for (size_t pos = 8; pos + 12 <= file.size();) {
     const uint32_t len = be32(&file[pos]);
@@ -190,7 +193,7 @@ cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string
     const unsigned char* data = type + 4;
     if (libdeflate_crc32(0, type, len + 4) != be32(data + len)) {
       if (!(type[0] & 0x20)) return damaged("CRC error in chunk " + chunkName(type) + " at byte " + std::to_string(pos));
-      return {};  // an ancillary chunk: libpng drops it with a warning
+      decline = true;  // an ancillary chunk: libpng drops it with a warning
     }
     const std::string t(reinterpret_cast<const char*>(type), 4);
     if (pos == 8) {
@@ -205,28 +208,51 @@ cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string
                     std::to_string(kMaxPixels) + " (2^28) pixels dslam reads";
         return {};
       }
-      if (data[10] != 0 || data[11] != 0 || data[12] != 0) return {};  // compression, filter method, interlace
+      const bool valid_depth =
+          (color == 0 && (depth == 1 || depth == 2 || depth == 4 || depth == 8 || depth == 16)) ||
+          (color == 3 && (depth == 1 || depth == 2 || depth == 4 || depth == 8)) ||
+          ((color == 2 || color == 4 || color == 6) && (depth == 8 || depth == 16));
+      if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu || !valid_depth || data[10] != 0 || data[11] != 0 ||
+          data[12] > 1)
+        return damaged("invalid header (IHDR): " + std::to_string(w) + "x" + std::to_string(h) + " pixels, colour type " +
+                       std::to_string(color) + ", bit depth " + std::to_string(depth) + ", compression " +
+                       std::to_string(data[10]) + ", filter " + std::to_string(data[11]) + ", interlace " +
+                       std::to_string(data[12]));
+      interlaced = data[12] == 1;
+      decline = decline || interlaced;
     } else if (t == "IDAT") {
       idat.insert(idat.end(), data, data + len);
     } else if (t == "IEND") {
       ended = true;
       break;
     } else if (!(type[0] & 0x20) || t == "tRNS" || t == "eXIf") {
-      return {};
+      decline = true;
     }
     pos += 12 + size_t(len);
   }
   if (!ended && w != 0) return damaged("truncated: the file ends without an IEND chunk");
+  if (!ended || w == 0) return {};
   const int channels = color == 0 ? 1 : color == 2 ? 3 : color == 6 ? 4 : 0;
-  if (!ended || w == 0 || h == 0 || uint64_t(w) * h > kMaxPixels || channels == 0) return {};
-  if (depth != 8 && !(depth == 16 && channels == 1)) return {};
   const bool ok_flags = flags == cv::IMREAD_UNCHANGED || (flags == cv::IMREAD_ANYDEPTH && channels == 1) ||
                         (flags == cv::IMREAD_COLOR && channels == 3 && depth == 8) ||
                         (flags == cv::IMREAD_GRAYSCALE && channels == 1 && depth == 8);
-  if (!ok_flags) return {};
+  decline = decline || channels == 0 || (depth != 8 && !(depth == 16 && channels == 1)) || !ok_flags;
 
-  const size_t bpp = size_t(channels) * size_t(depth / 8), row = bpp * w;
-  raw.resize((row + 1) * h);
+  // Inflate into the size the layout needs (declined layouts too: whether
+  // their data is a valid zlib stream).
+  const int samples = color == 0 || color == 3 ? 1 : color == 4 ? 2 : color == 2 ? 3 : 4;
+  const uint64_t bits = uint64_t(samples) * uint64_t(depth);
+  auto rows = [&](uint64_t pw, uint64_t ph) { return pw == 0 || ph == 0 ? 0 : ph * ((pw * bits + 7) / 8 + 1); };
+  uint64_t need = 0;
+  if (!interlaced) {
+    need = rows(w, h);
+  } else {  // Adam7: the seven passes' sub-images
+    static const uint32_t kPass[7][4] = {{0, 0, 8, 8}, {4, 0, 8, 8}, {0, 4, 4, 8}, {2, 0, 4, 4},
+                                         {0, 2, 2, 4}, {1, 0, 2, 2}, {0, 1, 1, 2}};
+    for (const auto& q : kPass)
+      need += rows(w > q[0] ? (w - q[0] + q[2] - 1) / q[2] : 0, h > q[1] ? (h - q[1] + q[3] - 1) / q[3] : 0);
+  }
+  raw.resize(static_cast<size_t>(need));
   thread_local std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> inflater(
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
   size_t got = 0;
@@ -234,7 +260,8 @@ cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string
   const libdeflate_result r =
       libdeflate_zlib_decompress(inflater.get(), idat.data(), idat.size(), raw.data(), raw.size(), &got);
   if (r == LIBDEFLATE_BAD_DATA) return damaged("the image data (IDAT) is not a valid zlib stream");
-  if (r != LIBDEFLATE_SUCCESS || got != raw.size()) return {};
+  if (decline || r != LIBDEFLATE_SUCCESS || got != raw.size()) return {};
+  const size_t bpp = size_t(channels) * size_t(depth / 8), row = bpp * w;
 
   cv::Mat out(static_cast<int>(h), static_cast<int>(w), CV_MAKETYPE(depth == 8 ? CV_8U : CV_16U, channels));
   const std::vector<unsigned char> zeros(row, 0);

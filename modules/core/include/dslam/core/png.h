@@ -27,7 +27,9 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nu
 
 /** readPngFast(path, flags), or cv::imread(path, flags) when it declines.
  *  A PNG that is damaged (a CRC error in a critical chunk, truncated, image
- *  data that does not inflate) gives an empty Mat and, in `damage`, why:
+ *  data that does not inflate, a header libpng refuses) gives an empty Mat
+ *  and, in `damage`, why (also in the layouts left to cv::imread: every
+ *  PNG's chunks are walked and its image data inflated first):
  *  it is not passed on to cv::imread, whose libpng would print its own
  *  "libpng error: ..." line to stderr before failing as well. So does a
  *  PNG of more than 2^28 pixels (a decompression bomb: a few MB of file
