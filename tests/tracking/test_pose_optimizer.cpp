@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "dslam/tracking/pose_optimizer.h"
@@ -88,4 +89,57 @@ TEST(PoseOptimizer, TooFewObservations) {
   SE3 T = pr.T_true;
   std::vector<char> out;
   EXPECT_EQ(optimizePose(T, pr.obs, out, pr.p).inliers, 0);
+}
+
+// A walking person mapped moments ago: 150 young observations of points
+// that have since moved 12 cm together, against 80 older background points.
+// optimizePose follows the majority (the person); the older-first path
+// keeps the background's pose and flags every moved point.
+TEST(PoseOptimizer, OlderPointsFirstKeepAYoungMoverOut) {
+  Problem pr = makeProblem(true, 0.5, 0.0, 4);
+  pr.obs.resize(230);
+  std::vector<char> young(pr.obs.size(), 0);
+  const SE3 T_wc = pr.T_true.inverse();
+  for (size_t i = 80; i < pr.obs.size(); i++) {
+    young[i] = 1;
+    // Seen where the point is now; the map still has it 12 cm away.
+    pr.obs[i].Xw += T_wc.rotation() * Eigen::Vector3d(0.12, 0.0, 0.0);
+  }
+  SE3::Vec6 d;
+  d << 0.01, -0.01, 0.01, 0.005, 0.0, -0.005;
+  const SE3 start = SE3::exp(d) * pr.T_true;
+
+  SE3 plain = start;
+  std::vector<char> out;
+  optimizePose(plain, pr.obs, out, pr.p);
+  EXPECT_GT(transErr(plain, pr.T_true), 0.08);  // carried with the person
+
+  SE3 T = start;
+  bool checked = false;
+  const auto r = optimizePoseOlderFirst(T, pr.obs, young, 50, out, pr.p, &checked);
+  EXPECT_TRUE(checked);
+  EXPECT_LT(transErr(T, pr.T_true), 0.003);
+  EXPECT_LT(rotErrDeg(T, pr.T_true), 0.1);
+  int young_kept = 0, older_out = 0;
+  for (size_t i = 0; i < pr.obs.size(); i++) (young[i] ? young_kept : older_out) += young[i] ? !out[i] : out[i];
+  EXPECT_EQ(young_kept, 0);
+  EXPECT_LE(older_out, 4);
+  EXPECT_EQ(r.inliers, 80 - older_out);
+
+  // Young points that fit the older ones' pose are kept.
+  Problem still = makeProblem(true, 0.5, 0.0, 4);
+  still.obs.resize(230);
+  SE3 T2 = start;
+  optimizePoseOlderFirst(T2, still.obs, young, 50, out, still.p);
+  EXPECT_LT(transErr(T2, still.T_true), 0.003);
+  EXPECT_LE(std::count(out.begin(), out.end(), 1), 10);
+
+  // Fewer older points than min_older: exactly optimizePose.
+  SE3 T3 = start, T4 = start;
+  std::vector<char> out3, out4;
+  optimizePoseOlderFirst(T3, pr.obs, young, 81, out3, pr.p, &checked);
+  EXPECT_FALSE(checked);
+  optimizePose(T4, pr.obs, out4, pr.p);
+  EXPECT_EQ(out3, out4);
+  EXPECT_NEAR(transErr(T3, T4), 0.0, 1e-12);
 }

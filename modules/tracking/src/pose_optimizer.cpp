@@ -1,5 +1,6 @@
 #include "dslam/tracking/pose_optimizer.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -98,6 +99,41 @@ PoseOptimizerResult optimizePose(SE3& T_cw, const std::vector<PoseObservation>& 
     if (res.inliers < 10) break;
   }
   return res;
+}
+
+PoseOptimizerResult optimizePoseOlderFirst(SE3& T_cw, const std::vector<PoseObservation>& obs,
+                                          const std::vector<char>& young, int min_older, std::vector<char>& outlier,
+                                          const PoseOptimizerParams& p, bool* checked) {
+  if (checked) *checked = false;
+  std::vector<PoseObservation> older;
+  for (size_t i = 0; i < obs.size(); i++)
+    if (!young[i]) older.push_back(obs[i]);
+  if (older.size() < static_cast<size_t>(std::max(min_older, 3)) || older.size() == obs.size())
+    return optimizePose(T_cw, obs, outlier, p);
+  SE3 T_old = T_cw;
+  std::vector<char> out_older;
+  if (optimizePose(T_old, older, out_older, p).inliers < min_older) return optimizePose(T_cw, obs, outlier, p);
+  // The young observations that fit the older points' pose join them.
+  std::vector<PoseObservation> kept;
+  std::vector<size_t> kept_index;
+  outlier.assign(obs.size(), 1);
+  Eigen::Vector3d e;
+  Eigen::Matrix<double, 3, 6> J;
+  int dim = 2;
+  for (size_t i = 0; i < obs.size(); i++) {
+    if (young[i] &&
+        (!residual(T_old, obs[i], p, e, J, dim) ||
+         obs[i].information * e.squaredNorm() > (dim == 3 ? p.chi2_stereo : p.chi2_mono)))
+      continue;
+    kept.push_back(obs[i]);
+    kept_index.push_back(i);
+  }
+  if (checked) *checked = true;
+  T_cw = T_old;
+  std::vector<char> out_kept;
+  const PoseOptimizerResult r = optimizePose(T_cw, kept, out_kept, p);
+  for (size_t k = 0; k < kept_index.size(); k++) outlier[kept_index[k]] = out_kept[k];
+  return r;
 }
 
 }  // namespace dslam

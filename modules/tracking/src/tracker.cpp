@@ -40,6 +40,10 @@ std::vector<ParamSpec> TrackerParams::specs() {
       P_int("max_local_keyframes", d.max_local_keyframes, "size limit of the local keyframe set (ORB-SLAM2: 80)", 1),
       P_int("reloc_candidates", d.reloc_candidates, "keyframes tried when relocalising without a vocabulary", 1),
       P_bool("localization_only", d.localization_only, "track against a fixed (loaded) map without creating keyframes"),
+      P_int("young_frames", d.young_frames,
+            "map points made from keyframes of the last N frames are first checked against the pose from the older "
+            "points (0: off)", 0),
+      P_int("young_min_older", d.young_min_older, "older matched points needed for that check", 1),
   };
 }
 
@@ -60,6 +64,8 @@ TrackerParams TrackerParams::fromParams(const Params& p) {
   t.max_local_keyframes = static_cast<int>(p.getInt("max_local_keyframes"));
   t.reloc_candidates = static_cast<int>(p.getInt("reloc_candidates"));
   t.localization_only = p.getBool("localization_only");
+  t.young_frames = static_cast<int>(p.getInt("young_frames"));
+  t.young_min_older = static_cast<int>(p.getInt("young_min_older"));
   return t;
 }
 
@@ -216,6 +222,7 @@ bool Tracker::initialize() {
   if (usable <= p_.init_min_points || with_depth < p_.init_min_depth_points) return false;
   cur_.T_cw = SE3();
   auto kf = std::make_shared<KeyFrame>(Map::nextKeyFrameId(), cur_.f, *cur_.T_cw, cam_, scale_, map_.get());
+  kf_frame_[kf->id] = frame_id_;
   map_->addKeyFrame(kf);
   for (size_t i = 0; i < cur_.size(); i++) {
     if (!cur_.usable(i) || cur_.f.depth[i] <= 0) continue;
@@ -268,7 +275,13 @@ int Tracker::optimizePose() {
   pp.bf = cam_.bf;
   std::vector<char> out;
   SE3 T = *cur_.T_cw;
-  const auto r = dslam::optimizePose(T, obs, out, pp);
+  std::vector<char> young(obs.size(), 0);
+  if (p_.young_frames > 0)  // points of the keyframes of the last young_frames frames
+    for (size_t k = 0; k < idx.size(); k++) {
+      const auto it = kf_frame_.find(cur_.points[idx[k]]->first_kf_id);
+      young[k] = it != kf_frame_.end() && it->second > frame_id_ - p_.young_frames;
+    }
+  const auto r = dslam::optimizePoseOlderFirst(T, obs, young, p_.young_min_older, out, pp);
   cur_.T_cw = T;
   for (size_t k = 0; k < idx.size(); k++) cur_.outlier[idx[k]] = out[k];
   return r.inliers;
@@ -568,6 +581,7 @@ bool Tracker::needNewKeyFrame() {
 
 void Tracker::createNewKeyFrame() {
   auto kf = std::make_shared<KeyFrame>(Map::nextKeyFrameId(), cur_.f, *cur_.T_cw, cam_, scale_, map_.get());
+  kf_frame_[kf->id] = frame_id_;
   // Matched points become the keyframe's associations (observations are added by local mapping).
   for (size_t i = 0; i < cur_.size(); i++)
     if (cur_.points[i] && !cur_.outlier[i]) kf->points[i] = cur_.points[i];

@@ -39,4 +39,18 @@ struct PoseOptimizerResult {
 PoseOptimizerResult optimizePose(SE3& T_cw, const std::vector<PoseObservation>& obs, std::vector<char>& outlier,
                                  const PoseOptimizerParams& p);
 
+/** optimizePose, with the observations flagged `young` (map points made
+ *  moments ago) checked against the others first: when at least
+ *  `min_older` older observations remain inliers of a pose optimised on
+ *  them alone, the young ones that do not fit that pose (chi2 test) are
+ *  outliers, and the pose is optimised again on the older ones and the
+ *  young ones that fit. Otherwise (too few older ones) it is
+ *  optimizePose(). Points of a mover that a keyframe mapped (a box that
+ *  lagged behind a walking person) are young, and where they outnumber the
+ *  background they would otherwise carry the pose with them. `checked`
+ *  (optional) tells whether the older-first path was taken. */
+PoseOptimizerResult optimizePoseOlderFirst(SE3& T_cw, const std::vector<PoseObservation>& obs,
+                                          const std::vector<char>& young, int min_older, std::vector<char>& outlier,
+                                          const PoseOptimizerParams& p, bool* checked = nullptr);
+
 }  // namespace dslam

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <unordered_map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -39,6 +40,8 @@ struct TrackerParams {
   int max_local_keyframes = 80;
   int reloc_candidates = 10;      ///< keyframes tried when relocalising without a vocabulary
   bool localization_only = false; ///< track against a fixed map, no keyframes
+  int young_frames = 0;           ///< points made in the last N frames are checked against the older ones' pose (0: off)
+  int young_min_older = 50;       ///< ...when at least this many older points are matched
   SensorType sensor = SensorType::RGBD;  ///< set from the camera, not from YAML
 
   static std::vector<ParamSpec> specs();
@@ -162,6 +165,7 @@ class Tracker {
   TrackedFrame cur_, last_;
   std::optional<SE3> velocity_;
   KeyFrame* ref_kf_ = nullptr;
+  std::unordered_map<int64_t, int64_t> kf_frame_;  ///< frame_id_ of every keyframe this tracker made (young_frames)
   std::vector<KeyFrame*> local_kfs_;
   std::vector<MapPointPtr> local_points_;
   int matches_inliers_ = 0;
