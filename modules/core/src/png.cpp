@@ -87,12 +87,8 @@ bool unfilter(int type, unsigned char* c, const unsigned char* p, size_t row, si
   }
 }
 
-}  // namespace
-
 /** Larger images are refused before decoding (no camera comes near). */
 constexpr uint64_t kMaxPixels = uint64_t(1) << 28;
-
-namespace {
 
 /** Why the JPEG in `f` is damaged, or "" when it is whole or not a JPEG.
  *  Walks the markers from SOI to EOI: every segment's length, and the
@@ -141,22 +137,6 @@ std::string jpegDamage(const std::vector<unsigned char>& f) {
 }
 
 /** readPngFast on the bytes of the file. */
-cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string* damage);
-
-}  // namespace
-
-cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
-  thread_local std::vector<unsigned char> file;
-  if (damage) damage->clear();
-  if (std::string not_file; !readFile(path, file, not_file)) {
-    if (damage) *damage = not_file;
-    return {};
-  }
-  return decodePng(file, flags, damage);
-}
-
-namespace {
-
 cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string* damage) {
   thread_local std::vector<unsigned char> idat, raw;
   if (damage) damage->clear();
@@ -293,6 +273,16 @@ cv::Mat decodePng(const std::vector<unsigned char>& file, int flags, std::string
 }
 
 }  // namespace
+
+cv::Mat readPngFast(const std::string& path, int flags, std::string* damage) {
+  thread_local std::vector<unsigned char> file;
+  if (damage) damage->clear();
+  if (std::string not_file; !readFile(path, file, not_file)) {
+    if (damage) *damage = not_file;
+    return {};
+  }
+  return decodePng(file, flags, damage);
+}
 
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
   thread_local std::vector<unsigned char> file;
