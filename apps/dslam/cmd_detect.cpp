@@ -202,7 +202,7 @@ void setup(CLI::App& sub) {
       if (!o.out.empty()) {
         const std::string path =
             out_dir ? (fs::path(o.out) / (fs::path(f.image_path).stem().string() + "_det.png")).string() : o.out;
-        if (!cv::imwrite(path, annotate(f.image, d))) throw DataError("cannot write " + path);
+        writeImageFile(path, annotate(f.image, d));
       }
     }
   });

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <set>
 
+#include "dslam/core/error.h"
 #include "dslam/core/png.h"
 #include "test_support.h"
 
@@ -290,4 +291,33 @@ TEST(Png, DamageInLayoutsLeftToImreadIsFoundToo) {
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
   EXPECT_EQ(why, "corrupt PNG: invalid header (IHDR): 77x61 pixels, colour type 0, bit depth 3, compression 0, "
                  "filter 0, interlace 0");
+}
+
+TEST(Png, WriteImageFileSaysWhenTheDiskIsFullWithoutLibpngsLine) {
+  const std::string dir = test::tempDir("png_write");
+  const cv::Mat rgb = testImage(CV_8UC3, 11), depth = testImage(CV_16UC1, 12);
+  writeImageFile(dir + "/c.png", rgb, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE});
+  writeImageFile(dir + "/d.png", depth);
+  EXPECT_TRUE(identical(cv::imread(dir + "/c.png", cv::IMREAD_UNCHANGED), rgb));
+  EXPECT_TRUE(identical(cv::imread(dir + "/d.png", cv::IMREAD_UNCHANGED), depth));
+  // The same bytes as cv::imwrite.
+  ASSERT_TRUE(cv::imwrite(dir + "/c_cv.png", rgb, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE}));
+  EXPECT_EQ(test::readFile(dir + "/c.png"), test::readFile(dir + "/c_cv.png"));
+  auto errorOf = [&](const std::string& path) {
+    testing::internal::CaptureStderr();
+    std::string msg;
+    try {
+      writeImageFile(path, rgb);
+    } catch (const DataError& e) {
+      msg = e.what();
+    }
+    EXPECT_EQ(testing::internal::GetCapturedStderr(), "") << path;  // cv::imwrite: "libpng error: Write Error"
+    return msg;
+  };
+  if (std::filesystem::exists("/dev/full")) {  // every write fails with ENOSPC, as on a full disk
+    EXPECT_EQ(errorOf("/dev/full").rfind("cannot write image /dev/full (", 0), 0u) << errorOf("/dev/full");
+  }
+  EXPECT_EQ(errorOf(dir + "/x.unknown"),
+            "cannot write image " + dir + "/x.unknown (no image format for the extension '.unknown')");
+  EXPECT_EQ(errorOf(dir + "/none/c.png").rfind("cannot write image " + dir + "/none/c.png", 0), 0u);
 }

@@ -1,5 +1,7 @@
 #include "dslam/core/png.h"
 
+#include "dslam/core/error.h"
+
 #include <libdeflate.h>
 #include <sys/stat.h>
 
@@ -10,6 +12,7 @@
 #include <cstdlib>
 #include <cctype>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <vector>
 
@@ -295,6 +298,34 @@ cv::Mat readImageFile(const std::string& path, int flags, std::string* damage) {
   }
   if (damage) *damage = why;
   return m;
+}
+
+void writeImageFile(const std::string& path, const cv::Mat& m, const std::vector<int>& params) {
+  thread_local std::vector<unsigned char> bytes;
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext.empty() || !cv::haveImageWriter(path))
+    throw DataError("cannot write image " + path + " (no image format for the extension '" + ext + "')");
+  bool encoded = false;
+  try {
+    encoded = cv::imencode(ext, m, bytes, params);
+  } catch (const cv::Exception& e) {
+    throw DataError("cannot write image " + path + ": " + e.err);
+  }
+  if (!encoded) throw DataError("cannot write image " + path + ": the " + ext + " encoder refused it");
+  auto failed = [&] {
+    std::error_code ec;
+    const std::filesystem::space_info s = std::filesystem::space(std::filesystem::path(path).parent_path().empty()
+                                                                     ? std::filesystem::path(".")
+                                                                     : std::filesystem::path(path).parent_path(),
+                                                                 ec);
+    return DataError("cannot write image " + path +
+                     (ec ? std::string() : " (" + std::to_string(s.available >> 20) + " MB free on its disk)"));
+  };
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw failed();
+  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f.get()) == bytes.size();
+  FILE* raw = f.release();
+  if (std::fclose(raw) != 0 || !written) throw failed();
 }
 
 std::string unreadableImageReason(const std::string& damage) {

@@ -4,7 +4,6 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 #include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/log.h"
+#include "dslam/core/png.h"
 #include "dslam/core/thread_priority.h"
 #include "dslam/core/timing.h"
 #include "dslam/core/worker.h"
@@ -415,7 +415,7 @@ void DenseMapper::writeViews(const std::string& top_png, const std::string& side
     if (path.empty()) continue;
     const cv::Mat img = renderView(vox, p_.resolution, trajectory.poses, kf, top == 1, p_,
                                    std::string(top ? "top view: " : "side view: ") + title);
-    if (!cv::imwrite(path, img)) throw DataError("cannot write picture: " + path);
+    writeImageFile(path, img);
   }
 }
 

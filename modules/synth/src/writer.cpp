@@ -17,6 +17,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
+#include "dslam/core/png.h"
 #include "dslam/core/trajectory.h"
 #include "dslam/trajectory/io.h"
 
@@ -56,8 +57,7 @@ void writeText(const std::string& path, const std::string& text) {
  *  callgrind on a 640x480 walking_xyz frame, 43 instead of 64 million
  *  instructions per colour image and 33 instead of 39 per depth image. */
 void writePng(const std::string& path, const cv::Mat& m) {
-  if (!cv::imwrite(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE}))
-    throw DataError("cannot write image " + path + freeSpace(path));
+  writeImageFile(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE});
 }
 
 /** Panoptic id image (CV_32S) -> RGB PNG (stored BGR for OpenCV). */

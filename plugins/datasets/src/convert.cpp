@@ -4,7 +4,6 @@
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
 #include <mrpt/serialization/CArchive.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
@@ -15,6 +14,7 @@
 #include "common.h"
 #include "dslam/config/camera_yaml.h"
 #include "dslam/core/camera_presets.h"
+#include "dslam/core/png.h"
 #include "dslam/core/error.h"
 #include "dslam/core/format.h"
 #include "dslam/core/log.h"
@@ -182,7 +182,7 @@ ConvertReport convertRawlogToTum(const std::string& in_rawlog, const std::string
       throw DataError("frame " + std::to_string(i) + ": timestamp " + ts + " repeats at microsecond resolution");
     prev = ts;
     const std::string rn = "rgb/" + ts + ".png";
-    if (!cv::imwrite(out_dir + "/" + rn, f.image)) throw DataError("cannot write " + out_dir + "/" + rn);
+    writeImageFile(out_dir + "/" + rn, f.image);
     frgb << ts << " " << rn << "\n";
     if (!rgbd) continue;
     cv::Mat d16;
@@ -209,7 +209,7 @@ ConvertReport convertRawlogToTum(const std::string& in_rawlog, const std::string
       }
     }
     const std::string dn = "depth/" + ts + ".png";
-    if (!cv::imwrite(out_dir + "/" + dn, d16)) throw DataError("cannot write " + out_dir + "/" + dn);
+    writeImageFile(out_dir + "/" + dn, d16);
     fdep << ts << " " << dn << "\n";
     fass << ts << " " << rn << " " << ts << " " << dn << "\n";
     prog.update(i + 1);

@@ -82,13 +82,7 @@ void writeText(const std::string& file, const std::string& text) {
 void writePng(const std::string& file, const cv::Mat& m) {
   const fs::path p(file);
   if (p.has_parent_path()) fs::create_directories(p.parent_path());
-  bool ok = false;
-  try {
-    ok = cv::imwrite(file, m);
-  } catch (const cv::Exception& e) {
-    throw DataError("cannot write " + file + ": " + e.what());
-  }
-  if (!ok) throw DataError("cannot write " + file);
+  writeImageFile(file, m);
 }
 
 /** Label images are PNG (docs/detectors.md). The header is checked before

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include <string>
+#include <vector>
 
 namespace dslam {
 
@@ -39,6 +40,13 @@ cv::Mat readPngFast(const std::string& path, int flags, std::string* damage = nu
  *  file"), and a path that is not a regular file (a folder, a FIFO
  *  cv::imread would wait on). */
 cv::Mat readImageFile(const std::string& path, int flags, std::string* damage = nullptr);
+
+/** Writes `m` to `path` in the format its extension names (cv::imencode
+ *  with `params`), then the bytes with a checked write. cv::imwrite lets the
+ *  codec write the file itself, and on a full disk libpng prints "libpng
+ *  error: Write Error" to stderr before failing. Throws DataError naming the
+ *  file and, when the write fails, the space left on its disk. */
+void writeImageFile(const std::string& path, const cv::Mat& m, const std::vector<int>& params = {});
 
 /** Why readImageFile gave nothing, for messages: its `damage` ("corrupt
  *  PNG: ...", "corrupt JPEG: ...", "PNG of WxH pixels: more than ...") or "corrupt or
