@@ -79,6 +79,14 @@ bool isInside(const std::string& path, const std::string& dir) {
   return !rel.empty() && *rel.begin() != "..";
 }
 
+std::string freeSpaceNote(const std::string& path) {
+  std::error_code ec;
+  const fs::path dir = fs::path(path).parent_path();
+  const fs::space_info s = fs::space(dir.empty() ? fs::path(".") : dir, ec);
+  if (ec) return "";
+  return " (" + std::to_string(s.available >> 20) + " MB free on its disk)";
+}
+
 void requireDir(const std::string& p, const std::string& what, const std::string& hint) {
   if (!dirExists(p))
     throw DataError(what + " not found: " + p + (hint.empty() ? "" : " (" + hint + ")"));

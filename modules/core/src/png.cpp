@@ -1,6 +1,7 @@
 #include "dslam/core/png.h"
 
 #include "dslam/core/error.h"
+#include "dslam/core/paths.h"
 
 #include <libdeflate.h>
 #include <sys/stat.h>
@@ -312,15 +313,7 @@ void writeImageFile(const std::string& path, const cv::Mat& m, const std::vector
     throw DataError("cannot write image " + path + ": " + e.err);
   }
   if (!encoded) throw DataError("cannot write image " + path + ": the " + ext + " encoder refused it");
-  auto failed = [&] {
-    std::error_code ec;
-    const std::filesystem::space_info s = std::filesystem::space(std::filesystem::path(path).parent_path().empty()
-                                                                     ? std::filesystem::path(".")
-                                                                     : std::filesystem::path(path).parent_path(),
-                                                                 ec);
-    return DataError("cannot write image " + path +
-                     (ec ? std::string() : " (" + std::to_string(s.available >> 20) + " MB free on its disk)"));
-  };
+  auto failed = [&] { return DataError("cannot write image " + path + freeSpaceNote(path)); };
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
   if (!f) throw failed();
   const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f.get()) == bytes.size();

@@ -15,8 +15,10 @@
 #include "dslam/config/camera_yaml.h"
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
+#include "dslam/core/format.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
+#include "dslam/core/paths.h"
 #include "dslam/core/png.h"
 #include "dslam/core/trajectory.h"
 #include "dslam/trajectory/io.h"
@@ -28,26 +30,13 @@ namespace dslam::synth {
 
 namespace {
 
-std::string stampName(double t) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.6f", t);
-  return b;
-}
-
-/** " (N MB free on its disk)" for a failed write: a full disk is the usual
- *  cause when a long render stops half-way. */
-std::string freeSpace(const std::string& path) {
-  std::error_code ec;
-  const fs::space_info s = fs::space(fs::path(path).parent_path(), ec);
-  if (ec) return "";
-  return " (" + std::to_string(s.available >> 20) + " MB free on its disk)";
-}
+std::string stampName(double t) { return formatNumber("%.6f", t); }
 
 void writeText(const std::string& path, const std::string& text) {
   std::ofstream f(path, std::ios::binary);
-  if (!f) throw DataError("cannot write " + path + freeSpace(path));
+  if (!f) throw DataError("cannot write " + path + freeSpaceNote(path));
   f << text;
-  if (!f) throw DataError("write failed: " + path + freeSpace(path));
+  if (!f) throw DataError("write failed: " + path + freeSpaceNote(path));
 }
 
 /** PNG with OpenCV's default zlib level, run-length strategy and the Sub row
@@ -76,11 +65,7 @@ cv::Mat panopticPng(const cv::Mat& ids) {
 
 /** A JSON number printed as `fmt` prints it (the shortest text of the
  *  rounded double is that text). */
-ojson rounded(double v, const char* fmt) {
-  char b[64];
-  std::snprintf(b, sizeof b, fmt, v);
-  return std::strtod(b, nullptr);
-}
+ojson rounded(double v, const char* fmt) { return std::strtod(formatNumber(fmt, v).c_str(), nullptr); }
 ojson num(double v) { return rounded(v, "%.6g"); }
 ojson num9(double v) { return rounded(v, "%.9g"); }
 ojson stamp(double t) { return rounded(t, "%.6f"); }

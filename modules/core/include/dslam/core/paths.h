@@ -24,6 +24,10 @@ bool fileExists(const std::string& p);
  *  symlinks, "." and ".." (neither needs to exist). */
 bool isInside(const std::string& path, const std::string& dir);
 bool dirExists(const std::string& p);
+/** " (N MB free on its disk)" for the disk of the file `path` (its folder,
+ *  or the current one), "" when that cannot be told: for messages about a
+ *  failed write, whose usual cause is a full disk. */
+std::string freeSpaceNote(const std::string& path);
 /** Throws DataError("<what> not found: <path>" + hint) if missing. */
 void requireFile(const std::string& p, const std::string& what, const std::string& hint = "");
 void requireDir(const std::string& p, const std::string& what, const std::string& hint = "");
