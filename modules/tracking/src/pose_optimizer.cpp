@@ -105,6 +105,8 @@ PoseOptimizerResult optimizePoseOlderFirst(SE3& T_cw, const std::vector<PoseObse
                                           const std::vector<char>& young, int min_older, std::vector<char>& outlier,
                                           const PoseOptimizerParams& p, bool* checked) {
   if (checked) *checked = false;
+  // Off (young_frames 0) or nothing young: no copy on this per-frame path.
+  if (std::none_of(young.begin(), young.end(), [](char y) { return y != 0; })) return optimizePose(T_cw, obs, outlier, p);
   std::vector<PoseObservation> older;
   for (size_t i = 0; i < obs.size(); i++)
     if (!young[i]) older.push_back(obs[i]);
