@@ -314,11 +314,10 @@ void writeImageFile(const std::string& path, const cv::Mat& m, const std::vector
   }
   if (!encoded) throw DataError("cannot write image " + path + ": the " + ext + " encoder refused it");
   auto failed = [&] { return DataError("cannot write image " + path + freeSpaceNote(path)); };
-  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  FILE* f = std::fopen(path.c_str(), "wb");
   if (!f) throw failed();
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f.get()) == bytes.size();
-  FILE* raw = f.release();
-  if (std::fclose(raw) != 0 || !written) throw failed();
+  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  if (std::fclose(f) != 0 || !written) throw failed();  // fclose flushes: a full disk shows here
 }
 
 std::string unreadableImageReason(const std::string& damage) {
