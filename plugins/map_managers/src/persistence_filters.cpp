@@ -134,6 +134,7 @@ std::string PersistenceStats::str() const {
          (merged > 0 ? ", " + std::to_string(merged) + " merged" : "") +
          (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "") +
          (reidentified_by_prior > 0 ? " (" + std::to_string(reidentified_by_prior) + " by a neighbour's motion)" : "") +
+         (reidentified_as_part > 0 ? " (" + std::to_string(reidentified_as_part) + " as parts of a moved object)" : "") +
          (accumulated > 0 ? ", " + std::to_string(accumulated) + " candidates from small views added up" : "");
 }
 
@@ -199,6 +200,12 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
       P_double("reid_prior_radius", 2.0,
                "re-identification: a found motion is a prior for objects whose centroid is this near to where the moved "
                "object stood (m)",
+               0, 1000),
+      P_double("reid_part_radius", 1.0,
+               "re-identification: a dormant object whose centroid is this near to where an object of its class "
+               "stood that was found moved (in the last reid_prior_keyframes keyframes), and that this keyframe does "
+               "not show at its place, was part of it (an object mapped from several sides as several objects) and "
+               "moved with it: the same negative evidence (p_twin); ours, 0 = off",
                0, 1000),
       P_double("reid_inlier_distance", 0.08, "re-identification: a match within this of the rigid motion (m)", 1e-3,
                10),
@@ -302,6 +309,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   reid_.prior_min_inliers = static_cast<int>(p.getInt("reid_prior_min_inliers"));
   prior_keyframes_ = static_cast<int>(p.getInt("reid_prior_keyframes"));
   prior_radius_ = p.getDouble("reid_prior_radius");
+  part_radius_ = p.getDouble("reid_part_radius");
   motions_.clear();
   dormant_after_s_ = p.getDouble("dormant_after_s");
   dormant_on_lost_ = p.getBool("dormant_on_lost");
@@ -626,7 +634,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         if (!appearance) {
           appearance = reidAppearance(o);
           for (const PriorMotion& q : motions_)
-            if (q.map == m->id && kf->id - q.kf <= prior_keyframes_ && (q.from - o.centroid).norm() <= prior_radius_)
+            if (q.map == m->id && !q.motion.from_prior && kf->id - q.kf <= prior_keyframes_ &&
+                (q.from - o.centroid).norm() <= prior_radius_)
               priors.push_back(q.motion);
         }
         const ObjectMotion mv = reidentify(*s, o, *appearance, reid_, priors);
@@ -639,10 +648,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         }
         o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
         stats_.reidentified++;
-        if (mv.from_prior)
-          stats_.reidentified_by_prior++;
-        else
-          motions_.push_back({m->id, kf->id, o.centroid, mv});
+        if (mv.from_prior) stats_.reidentified_by_prior++;
+        motions_.push_back({m->id, kf->id, o.centroid, mv, o.id, o.class_id});
         traceObject(*kf, o,
                     ("re-identified as object " + std::to_string(s->id) + ", moved " + std::to_string(mv.shift) +
                      " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches" +
@@ -651,6 +658,27 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         moved = true;
         break;
       }
+      // Not found elsewhere itself, but a part of an object of its class
+      // found moved: an object mapped from several sides is several objects
+      // (their centroids too far apart for association, their boxes too
+      // thin to contain each other), and the parts the camera saw before the
+      // move but not after it have no descriptor matches with the new view.
+      if (!moved && o.dormant && part_radius_ > 0)
+        for (const PriorMotion& q : motions_) {
+          if (q.map != m->id || q.class_id != o.class_id || q.object == o.id || kf->id - q.kf > prior_keyframes_ ||
+              (q.from - o.centroid).norm() > part_radius_)
+            continue;
+          o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
+          stats_.reidentified++;
+          stats_.reidentified_as_part++;
+          traceObject(*kf, o,
+                      ("a part of object " + std::to_string(q.object) + " (found moved " +
+                       std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
+                       " m from it)")
+                          .c_str());
+          moved = true;
+          break;
+        }
       if (moved && o.belief < belief_threshold_) {
         setGone(o);
         continue;

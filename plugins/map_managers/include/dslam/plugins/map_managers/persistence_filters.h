@@ -53,6 +53,7 @@ struct PersistenceStats {
   int64_t merged = 0;             ///< objects merged into another (partial views of one object)
   int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
   int64_t reidentified_by_prior = 0;  ///< ... of them, confirmed with the motion of an object moved near them
+  int64_t reidentified_as_part = 0;   ///< ... of them, dormant parts of an object of their class found moved near them
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
   std::string str() const;
 };
@@ -156,11 +157,14 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   struct PriorMotion {
     int64_t map = -1, kf = -1;
     Eigen::Vector3d from = Eigen::Vector3d::Zero();  ///< where the moved object stood
-    ObjectMotion motion;
+    ObjectMotion motion;  ///< from_prior: found with another's motion (no prior itself; parts only)
+    int64_t object = -1;  ///< the moved object
+    int class_id = -1;
   };
   std::vector<PriorMotion> motions_;
   int prior_keyframes_ = 20;
   double prior_radius_ = 2.0;
+  double part_radius_ = 1.0;  ///< reid_part_radius
   PersistenceStats stats_;
 };
 
