@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <set>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/error.h"
 #include "dslam/core/png.h"
 #include "test_support.h"
@@ -320,4 +321,22 @@ TEST(Png, WriteImageFileSaysWhenTheDiskIsFullWithoutLibpngsLine) {
   EXPECT_EQ(errorOf(dir + "/x.unknown"),
             "cannot write image " + dir + "/x.unknown (no image format for the extension '.unknown')");
   EXPECT_EQ(errorOf(dir + "/none/c.png").rfind("cannot write image " + dir + "/none/c.png", 0), 0u);
+}
+
+TEST(TextFile, WriteTextFileWritesOrNamesTheFileThatFailed) {
+  const std::string dir = test::tempDir("text_write");
+  writeTextFile(dir + "/a.txt", "one\ntwo\n");
+  EXPECT_EQ(test::readFile(dir + "/a.txt"), "one\ntwo\n");
+  auto errorOf = [](const std::string& path) {
+    try {
+      writeTextFile(path, std::string(100000, 'x'));
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorOf(dir + "/none/b.txt").rfind("cannot write " + dir + "/none/b.txt", 0), 0u);
+  if (std::filesystem::exists("/dev/full")) {  // every write fails with ENOSPC, as on a full disk
+    EXPECT_EQ(errorOf("/dev/full").rfind("write failed: /dev/full", 0), 0u) << errorOf("/dev/full");
+  }
 }

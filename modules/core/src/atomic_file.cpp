@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "dslam/core/error.h"
+#include "dslam/core/paths.h"
 
 namespace dslam {
 
@@ -36,6 +37,14 @@ void AtomicOfstream::commit() {
     throw DataError("cannot rename " + tmp_ + " to " + path_);
   }
   committed_ = true;
+}
+
+void writeTextFile(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw DataError("cannot write " + path + freeSpaceNote(path));
+  f << text;
+  f.flush();
+  if (!f) throw DataError("write failed: " + path + freeSpaceNote(path));
 }
 
 }  // namespace dslam

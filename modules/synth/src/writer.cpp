@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "dslam/config/camera_yaml.h"
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
 #include "dslam/core/format.h"
@@ -31,13 +32,6 @@ namespace dslam::synth {
 namespace {
 
 std::string stampName(double t) { return formatNumber("%.6f", t); }
-
-void writeText(const std::string& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw DataError("cannot write " + path + freeSpaceNote(path));
-  f << text;
-  if (!f) throw DataError("write failed: " + path + freeSpaceNote(path));
-}
 
 /** PNG with OpenCV's default zlib level, run-length strategy and the Sub row
  *  filter (what imwrite does when no compression level is given): files about
@@ -331,7 +325,7 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
       for (int i = r.start; i < r.end; i++) writePng(imgs[static_cast<size_t>(i)].first, imgs[static_cast<size_t>(i)].second);
     });
     if (opt.labels) {
-      writeText((root / "boxes" / (st + ".json")).string(), layoutJson(boxesJson(s, f, fr), 2));
+      writeTextFile((root / "boxes" / (st + ".json")).string(), layoutJson(boxesJson(s, f, fr), 2));
       pan_images.push_back({{"id", f},
                             {"file_name", st + ".png"},
                             {"width", s.width},
@@ -343,10 +337,10 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
   }
   if (opt.progress) prog.finish();
 
-  writeText((root / "rgb.txt").string(), rgb_txt.str());
-  writeText((root / "depth.txt").string(), depth_txt.str());
-  writeText((root / "associations.txt").string(), assoc.str());
-  writeText((root / "times.txt").string(), times.str());
+  writeTextFile((root / "rgb.txt").string(), rgb_txt.str());
+  writeTextFile((root / "depth.txt").string(), depth_txt.str());
+  writeTextFile((root / "associations.txt").string(), assoc.str());
+  writeTextFile((root / "times.txt").string(), times.str());
   traj::writeTum((root / "groundtruth.txt").string(), gt,
                  "ground truth of dslam synth scenario '" + s.name + "' (camera pose T_wc: tx ty tz qx qy qz qw)");
   if (opt.right) {
@@ -357,7 +351,7 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
     traj::write((root / "poses.txt").string(), gt, kw);
   }
   const CameraModel cam = R.cameraModel();
-  writeText((root / "camera.yaml").string(),
+  writeTextFile((root / "camera.yaml").string(),
             "# Camera of this synthetic sequence (dslam camera section)\n" + config::cameraToYaml(cam));
   if (opt.right) {
     const auto& K = s.intrinsics;
@@ -373,10 +367,10 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
                                "0.000000000000e+00\n",
                   K.fx, K.cx, -K.fx * s.baseline, K.fy, K.cy);
     calib += b;
-    writeText((root / "calib.txt").string(), calib);
+    writeTextFile((root / "calib.txt").string(), calib);
   }
-  if (opt.labels) writeText((root / "panoptic.json").string(), layoutJson(panopticJson(s, pan_images, pan_annos), 2));
-  writeText((root / "objects.json").string(), layoutJson(objectsJson(s, scene, visible), 3));
+  if (opt.labels) writeTextFile((root / "panoptic.json").string(), layoutJson(panopticJson(s, pan_images, pan_annos), 2));
+  writeTextFile((root / "objects.json").string(), layoutJson(objectsJson(s, scene, visible), 3));
 
   if (stats) {
     stats->frames = s.frames;

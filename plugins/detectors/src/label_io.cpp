@@ -13,6 +13,7 @@
 #include <map>
 #include <sstream>
 
+#include "dslam/core/atomic_file.h"
 #include "dslam/core/coco.h"
 #include "dslam/core/error.h"
 #include "dslam/core/json_layout.h"
@@ -73,10 +74,7 @@ bool truthy(const At& at, const json& v) {
 void writeText(const std::string& file, const std::string& text) {
   const fs::path p(file);
   if (p.has_parent_path()) fs::create_directories(p.parent_path());
-  std::ofstream f(file, std::ios::binary);
-  if (!f) throw DataError("cannot write " + file);
-  f << text;
-  if (!f) throw DataError("error writing " + file);
+  writeTextFile(file, text);
 }
 
 void writePng(const std::string& file, const cv::Mat& m) {

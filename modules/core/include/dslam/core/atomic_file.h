@@ -34,4 +34,9 @@ class AtomicOfstream {
   bool committed_ = false;
 };
 
+/** Writes `text` to `path` in place (no temporary file: for files written
+ *  once per frame, where a rename each would cost). Throws DataError naming
+ *  the file, with the free space when the disk is full (freeSpaceNote). */
+void writeTextFile(const std::string& path, const std::string& text);
+
 }  // namespace dslam
