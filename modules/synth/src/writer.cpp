@@ -352,7 +352,7 @@ std::string writeSequence(const Scenario& s, const std::string& out_dir, const W
   }
   const CameraModel cam = R.cameraModel();
   writeTextFile((root / "camera.yaml").string(),
-            "# Camera of this synthetic sequence (dslam camera section)\n" + config::cameraToYaml(cam));
+                "# Camera of this synthetic sequence (dslam camera section)\n" + config::cameraToYaml(cam));
   if (opt.right) {
     const auto& K = s.intrinsics;
     char b[512];
