@@ -21,9 +21,14 @@ map merge with the error of its correction (scripts/independent/event_errors.py)
 on shift_dark the pose error of the 30 frames after the lights come back
 (aligned on the frames before the dark; scripts/independent/after_return.py's
 definition); the object layer's cost (timing.csv column map_manager, per
-keyframe, and spread over all frames). numpy only, no dslam code but the CLI.
+keyframe, and spread over all frames). Summary lines for the listed
+variants' runs: ATE per scene (results.csv), the errors of the loops and
+merges at the event and the max error after the return (counts above
+0.02 m and 0.05 m: issue 12's targets). numpy only, no dslam code but the
+CLI.
 """
 import argparse
+import csv
 import glob
 import json
 import os
@@ -128,11 +133,26 @@ def main():
     if a.objects_only:
         return
 
+    # ATE of the listed variants' cells per scene (renders of one scene together), from results.csv.
+    ate = {}
+    res = os.path.join(a.out, "results.csv")
+    if os.path.exists(res):
+        for r in csv.DictReader(open(res)):
+            if r.get("variant") in variants and base_scene(r.get("dataset", "")) in SCENES and r.get("ate_rmse_m"):
+                ate.setdefault(base_scene(r["dataset"]), []).append(float(r["ate_rmse_m"]))
+    if ate:
+        print("\nATE RMSE of these variants' runs (results.csv):\n")
+        for sc in [x for x in SCENES if x in ate]:
+            v = ate[sc]
+            print("- %s: %d runs, median %.4f m, max %.4f m, above 0.02 m in %d"
+                  % (sc, len(v), np.median(v), max(v), sum(x > 0.02 for x in v)))
+
     print("\nLoop closures and map merges (every event of every cell; error = position error of the poses from "
           "the event on, the trajectory aligned on its poses before it):\n")
     print("| cell | event | frame | inliers/matches | correction [m] | error at the event [m] | max error, next 30 [m] |")
     print("|---|---|---|---|---|---|---|")
     any_event = False
+    event_err = []  # error at the event, cells of the listed variants
     for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.r0"))):
         name = os.path.basename(cell)[:-3]
         sc = name.split(".")[1]
@@ -142,13 +162,20 @@ def main():
         for row in event_errors.errors(run, scene + "/groundtruth.txt"):
             any_event = True
             print("| %s | %s | %d | %d/%d | %.3f | %.3f | %.3f |" % ((name,) + row))
+            if name.split(".")[0] in variants:
+                event_err.append(row[-2])
     if not any_event:
         print("| (none) | | | | | | |")
+    if event_err:
+        print("\n- %s: %d loops and merges, error at the event median %.3f m, max %.3f m, above 0.05 m in %d"
+              % ("these variants", len(event_err), np.median(event_err), max(event_err),
+                 sum(e > 0.05 for e in event_err)))
 
     print("\nAfter the return on shift_dark (aligned on the frames before the dark, the 30 frames from the "
           "lights' return):\n")
     print("| variant | max [m] | median [m] |")
     print("|---|---|---|")
+    after_max = []  # per cell of the listed variants
     for sc in [n for n in scenes if base_scene(n) in DARK]:
         for cell in sorted(glob.glob(os.path.join(a.out, "cells", f"*.{sc}.r0"))):
             scene = scene_dir(a.out, sc)
@@ -157,6 +184,12 @@ def main():
             if after:
                 name = os.path.basename(cell).split(".")[0] + ("" if sc in DARK else f" ({sc})")
                 print("| %s | %.3f | %.3f |" % (name, max(after), np.median(after)))
+                if os.path.basename(cell).split(".")[0] in variants:
+                    after_max.append(max(after))
+    if after_max:
+        print("\n- %s: %d runs, max error after the return median %.3f m, max %.3f m, above 0.05 m in %d"
+              % ("these variants", len(after_max), np.median(after_max), max(after_max),
+                 sum(e > 0.05 for e in after_max)))
 
     print("\nObject layer cost (timing.csv map_manager: median / max per keyframe, mean per frame) [ms]:\n")
     print("| variant | scene | median | max | per frame |")
