@@ -167,9 +167,8 @@ def main():
     if not any_event:
         print("| (none) | | | | | | |")
     if event_err:
-        print("\n- %s: %d loops and merges, error at the event median %.3f m, max %.3f m, above 0.05 m in %d"
-              % ("these variants", len(event_err), np.median(event_err), max(event_err),
-                 sum(e > 0.05 for e in event_err)))
+        print("\n- these variants: %d loops and merges, error at the event median %.3f m, max %.3f m, above 0.05 m in %d"
+              % (len(event_err), np.median(event_err), max(event_err), sum(e > 0.05 for e in event_err)))
 
     print("\nAfter the return on shift_dark (aligned on the frames before the dark, the 30 frames from the "
           "lights' return):\n")
@@ -182,14 +181,14 @@ def main():
             _, _, after, _ = after_return(scene + "/groundtruth.txt", os.path.join(cell, "run", "trajectory.txt"),
                                           *DARK[base_scene(sc)], 30)
             if after:
-                name = os.path.basename(cell).split(".")[0] + ("" if sc in DARK else f" ({sc})")
+                variant = os.path.basename(cell).split(".")[0]
+                name = variant + ("" if sc in DARK else f" ({sc})")
                 print("| %s | %.3f | %.3f |" % (name, max(after), np.median(after)))
-                if os.path.basename(cell).split(".")[0] in variants:
+                if variant in variants:
                     after_max.append(max(after))
     if after_max:
-        print("\n- %s: %d runs, max error after the return median %.3f m, max %.3f m, above 0.05 m in %d"
-              % ("these variants", len(after_max), np.median(after_max), max(after_max),
-                 sum(e > 0.05 for e in after_max)))
+        print("\n- these variants: %d runs, max error after the return median %.3f m, max %.3f m, above 0.05 m in %d"
+              % (len(after_max), np.median(after_max), max(after_max), sum(e > 0.05 for e in after_max)))
 
     print("\nObject layer cost (timing.csv map_manager: median / max per keyframe, mean per frame) [ms]:\n")
     print("| variant | scene | median | max | per frame |")

@@ -9,15 +9,15 @@ with the prefix and whose dataset is a synthetic scene (objects.json): runs
 objects by verdict (match, stale, false) and by sightings (1, 2, 3 or more;
 objects.json of the run), and the single-sighting matches by the fate of
 the ground-truth object (static, moved). What "write an object only once a
-second keyframe saw it" would remove. numpy not needed.
+second keyframe saw it" would remove.
 """
 import argparse
 import collections
 import glob
 import json
 import os
-import subprocess
-import tempfile
+
+from changing_tables import eval_objects
 
 
 def main():
@@ -27,28 +27,25 @@ def main():
     ap.add_argument("--variants-prefix", default="changing_slam")
     a = ap.parse_args()
     by_sightings, single_match = collections.Counter(), collections.Counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        out_json = os.path.join(tmp, "eval.json")
-        for study in a.out:
-            for cell in sorted(glob.glob(os.path.join(study, "cells", a.variants_prefix + "*.r0"))):
-                scene = json.load(open(os.path.join(cell, "cell.json"))).get("dataset_path", "")
-                run = os.path.join(cell, "run")
-                if not os.path.exists(os.path.join(scene, "objects.json")) or not os.path.exists(run + "/objects.json"):
+    for study in a.out:
+        for cell in sorted(glob.glob(os.path.join(study, "cells", a.variants_prefix + "*.r0"))):
+            scene = json.load(open(os.path.join(cell, "cell.json"))).get("dataset_path", "")
+            run = os.path.join(cell, "run")
+            if not os.path.exists(os.path.join(scene, "objects.json")) or not os.path.exists(run + "/objects.json"):
+                continue
+            ev = eval_objects(a.dslam, run, scene)
+            if ev is None:
+                continue
+            objs = {o["id"]: o for o in json.load(open(run + "/objects.json"))["objects"]}
+            fate = {g["instance_id"]: g["fate"] for g in ev["ground_truth"]}
+            for e in ev["estimates"]:
+                o = objs.get(e["id"])
+                if not o or not e["active"]:
                     continue
-                if subprocess.run([a.dslam, "eval", "objects", run, scene, "--json", out_json],
-                                  capture_output=True).returncode != 0:
-                    continue
-                ev = json.load(open(out_json))
-                objs = {o["id"]: o for o in json.load(open(run + "/objects.json"))["objects"]}
-                fate = {g["instance_id"]: g["fate"] for g in ev["ground_truth"]}
-                for e in ev["estimates"]:
-                    o = objs.get(e["id"])
-                    if not o or not e["active"]:
-                        continue
-                    n = min(o["sightings"], 3)
-                    by_sightings[(e["verdict"], n)] += 1
-                    if e["verdict"] == "match" and n == 1:
-                        single_match[fate.get(e.get("instance_id"), "?")] += 1
+                n = min(o["sightings"], 3)
+                by_sightings[(e["verdict"], n)] += 1
+                if e["verdict"] == "match" and n == 1:
+                    single_match[fate.get(e.get("instance_id"), "?")] += 1
     print("| verdict | 1 sighting | 2 | 3 or more |")
     print("|---|---|---|---|")
     for v in sorted({k[0] for k in by_sightings}):

@@ -19,7 +19,6 @@
 #include "dslam/core/format.h"
 #include "dslam/core/json_layout.h"
 #include "dslam/core/log.h"
-#include "dslam/core/paths.h"
 #include "dslam/core/png.h"
 #include "dslam/core/trajectory.h"
 #include "dslam/trajectory/io.h"
