@@ -149,10 +149,11 @@ def main():
 
     print("\nLoop closures and map merges (every event of every cell; error = position error of the poses from "
           "the event on, the trajectory aligned on its poses before it):\n")
-    print("| cell | event | frame | inliers/matches | correction [m] | error at the event [m] | max error, next 30 [m] |")
-    print("|---|---|---|---|---|---|---|")
+    print("| cell | event | frame | inliers/matches | correction [m] | error at the event [m] | max error, next 30 [m] "
+          "| predicted sigma [m] |")
+    print("|---|---|---|---|---|---|---|---|")
     any_event = False
-    event_err = []  # error at the event, cells of the listed variants
+    event_err, event_sigma = [], []  # error at the event and its position_sigma_m, cells of the listed variants
     for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.r0"))):
         name = os.path.basename(cell)[:-3]
         sc = name.split(".")[1]
@@ -161,14 +162,23 @@ def main():
             continue
         for row in event_errors.errors(run, scene + "/groundtruth.txt"):
             any_event = True
-            print("| %s | %s | %d | %d/%d | %.3f | %.3f | %.3f |" % ((name,) + row))
+            print("| %s | %s | %d | %d/%d | %.3f | %.3f | %.3f | %.3f |" % ((name,) + row))
             if name.split(".")[0] in variants:
-                event_err.append(row[-2])
+                event_err.append(row[5])
+                event_sigma.append(row[7])
     if not any_event:
-        print("| (none) | | | | | | |")
+        print("| (none) | | | | | | | |")
     if event_err:
         print("\n- these variants: %d loops and merges, error at the event median %.3f m, max %.3f m, above 0.05 m in %d"
               % (len(event_err), np.median(event_err), max(event_err), sum(e > 0.05 for e in event_err)))
+        sig = np.array(event_sigma)
+        ok = sig > 0  # nan (older runs) and -1 (not refined) left out
+        if ok.any():
+            ratio = np.array(event_err)[ok] / sig[ok]
+            print("- these variants: predicted sigma of the corrected position (position_sigma_m) median %.3f m, "
+                  "%.3f-%.3f m; error at the event / sigma: RMS %.2f, max %.2f (%d events)"
+                  % (np.median(sig[ok]), sig[ok].min(), sig[ok].max(), np.sqrt(np.mean(ratio ** 2)), ratio.max(),
+                     ok.sum()))
 
     print("\nAfter the return on shift_dark (aligned on the frames before the dark, the 30 frames from the "
           "lights' return):\n")

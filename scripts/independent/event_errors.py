@@ -50,7 +50,7 @@ def associate(est, gt, max_dt=0.02):
 
 def errors(run, gt_file, after_n=30, max_dt=0.02):
     """One row per loop / merge event of RUN/events.jsonl: (event, frame, inliers, matches, correction_m,
-    error at the event, max error over the next after_n poses)."""
+    error at the event, max error over the next after_n poses, the event's position_sigma_m or nan)."""
     pairs = associate(read_tum(run + "/trajectory.txt"), read_tum(gt_file), max_dt)
     frame_t = {}
     for l in open(run + "/frames.csv"):
@@ -72,7 +72,7 @@ def errors(run, gt_file, after_n=30, max_dt=0.02):
         R, t = align(np.array([p[1] for p in before]), np.array([p[2] for p in before]))
         err = [np.linalg.norm(R @ p[1] + t - p[2]) for p in after]
         rows.append((e["event"], e["frame"], e.get("inliers", -1), e.get("matches", -1),
-                     e.get("correction_m", float("nan")), err[0], max(err)))
+                     e.get("correction_m", float("nan")), err[0], max(err), e.get("position_sigma_m", float("nan"))))
     return rows
 
 
@@ -87,9 +87,10 @@ def main():
     if not rows:
         print("no loop or merge events")
         return
-    print("event  frame  inliers/matches  correction_m  error_at_event_m  max_error_next_%d_m" % a.after)
+    print("event  frame  inliers/matches  correction_m  error_at_event_m  max_error_next_%d_m  position_sigma_m"
+          % a.after)
     for r in rows:
-        print("%-6s %5d  %4d/%-4d        %8.3f      %8.3f          %8.3f" % r)
+        print("%-6s %5d  %4d/%-4d        %8.3f      %8.3f          %8.3f             %8.3f" % r)
 
 
 if __name__ == "__main__":

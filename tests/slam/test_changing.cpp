@@ -33,6 +33,29 @@ RunSummary runOn(const std::string& pipeline, const std::string& scene, const st
   return runPipeline(pc, ov);
 }
 
+/** Frames of a run's timing.csv in which `stage` ran. */
+int framesWithStage(const std::string& out, const std::string& stage) {
+  auto cells = [](const std::string& line) {
+    std::vector<std::string> v;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) v.push_back(c);
+    return v;
+  };
+  std::ifstream f(out + "/timing.csv");
+  std::string line;
+  std::getline(f, line);
+  const std::vector<std::string> cols = cells(line);
+  const auto it = std::find(cols.begin(), cols.end(), stage + "_ms");
+  if (it == cols.end()) return 0;
+  const size_t c = static_cast<size_t>(it - cols.begin());
+  int n = 0;
+  while (std::getline(f, line)) {
+    const std::vector<std::string> v = cells(line);
+    n += c < v.size() && !v[c].empty();
+  }
+  return n;
+}
+
 eval::ObjectEvalResult evaluate(const std::string& out, const std::string& scene) {
   const eval::Scene sc = eval::readScene(scene);
   const eval::EstObjects est = eval::readEstObjects(out + "/objects.json");
@@ -104,6 +127,10 @@ TEST(ChangingScenes, ShiftDarkFoolsTheBaselineNotChangingSlam) {
   const std::vector<double> e = errorsAfter(gt, traj::readTum(out + "/trajectory.txt"), kDark, kBack, 30);
   ASSERT_EQ(e.size(), 30u);
   EXPECT_LT(*std::max_element(e.begin(), e.end()), 0.05);  // target 5 cm
+  // The merge's global BA, a second one three keyframes later
+  // (loop_closing.global_ba_again_after) and one at the end.
+  EXPECT_EQ(framesWithStage(out, "global_ba"), 2);
+  EXPECT_EQ(framesWithStage(out, "global_ba_at_end"), 1);
   const eval::ObjectEvalResult r = evaluate(out, scene);
   std::cout << eval::toText(r);
   EXPECT_LT(r.align_ate, 0.02);

@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iostream>
 #include <random>
+
+#include <Eigen/Eigenvalues>
 
 #include "dslam/tracking/pose_optimizer.h"
 
@@ -142,4 +145,80 @@ TEST(PoseOptimizer, OlderPointsFirstKeepAYoungMoverOut) {
   optimizePose(T4, pr.obs, out4, pr.p);
   EXPECT_EQ(out3, out4);
   EXPECT_NEAR(transErr(T3, T4), 0.0, 1e-12);
+}
+
+namespace {
+/** 120 stereo observations of points at depths [z0, z1] seen by the camera
+ *  at T_true, with `noise_px` Gaussian noise on u, v and u_right. */
+Problem depthBand(double z0, double z1, double noise_px, unsigned seed) {
+  Problem pr = makeProblem(true, 0.0, 0.0, 1);
+  pr.obs.clear();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(-1, 1), uz(z0, z1);
+  std::normal_distribution<double> n(0, noise_px);
+  const SE3 T_wc = pr.T_true.inverse();
+  while (pr.obs.size() < 120) {
+    const double z = uz(rng);
+    const Eigen::Vector3d Xc(ux(rng) * 0.55 * z, ux(rng) * 0.42 * z, z);
+    PoseObservation o;
+    o.Xw = T_wc * Xc;
+    const double u = pr.p.fx * Xc.x() / z + pr.p.cx, v = pr.p.fy * Xc.y() / z + pr.p.cy;
+    o.uv = {u + n(rng), v + n(rng)};
+    o.u_right = u - pr.p.bf / z + n(rng);
+    pr.obs.push_back(o);
+  }
+  return pr;
+}
+}  // namespace
+
+// poseCovariance is the Cramer-Rao bound of optimizePose: over 300 noisy
+// draws of the same far scene (4-5 m, as shift_dark's shelf at the merge),
+// the camera positions' spread along the predicted weakest axis and along
+// the optical axis is the predicted one.
+TEST(PoseOptimizer, PoseCovariancePredictsTheSpreadOfTheEstimate) {
+  const Problem ref = depthBand(4, 5, 0.0, 3);
+  const Eigen::Matrix<double, 6, 6> C = poseCovariance(ref.T_true, ref.obs, {}, ref.p);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C.topLeftCorner<3, 3>());
+  const Eigen::Vector3d weak = es.eigenvectors().col(2);
+  const double sigma_weak = std::sqrt(es.eigenvalues()(2)), sigma_z = std::sqrt(C(2, 2));
+  std::vector<double> dw, dz;
+  for (unsigned s = 0; s < 300; s++) {
+    Problem pr = ref;  // the same points, new noise
+    std::mt19937 rng(100 + s);
+    std::normal_distribution<double> n(0, 1.0);
+    for (size_t i = 0; i < pr.obs.size(); i++) {
+      const Eigen::Vector3d Xc = ref.T_true * ref.obs[i].Xw;
+      const double u = pr.p.fx * Xc.x() / Xc.z() + pr.p.cx, v = pr.p.fy * Xc.y() / Xc.z() + pr.p.cy;
+      pr.obs[i].uv = {u + n(rng), v + n(rng)};
+      pr.obs[i].u_right = u - pr.p.bf / Xc.z() + n(rng);
+    }
+    SE3 T = pr.T_true;
+    std::vector<char> out;
+    optimizePose(T, pr.obs, out, pr.p);
+    // Camera position error in the true camera's axes.
+    const Eigen::Vector3d d = pr.T_true.rotation() * (T.inverse().translation() - pr.T_true.inverse().translation());
+    dw.push_back(weak.dot(d));
+    dz.push_back(d.z());
+  }
+  auto rms = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x * x;
+    return std::sqrt(s / static_cast<double>(v.size()));
+  };
+  std::cout << "far scene: predicted sigma " << sigma_weak << " m (weakest axis), " << sigma_z << " m (optical axis); "
+            << "measured " << rms(dw) << " m, " << rms(dz) << " m\n";
+  EXPECT_GT(sigma_weak, 3 * sigma_z);  // one depth: height/pitch and side/yaw trade against each other
+  EXPECT_NEAR(rms(dw) / sigma_weak, 1.0, 0.25);
+  EXPECT_NEAR(rms(dz) / sigma_z, 1.0, 0.25);
+  EXPECT_LT(std::abs(weak.z()), 0.5);  // the weak axis lies across the view, not along it
+
+  // Points spread over 1-5 m pin the pose down several times better.
+  const Problem near = depthBand(1, 5, 0.0, 3);
+  const Eigen::Matrix3d Cn = poseCovariance(near.T_true, near.obs, {}, near.p).topLeftCorner<3, 3>();
+  const double sigma_near = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(Cn).eigenvalues()(2));
+  std::cout << "1-5 m: predicted sigma " << sigma_near << " m\n";
+  EXPECT_LT(sigma_near, sigma_weak / 3);
+  // Fewer than three observations: no covariance.
+  std::vector<PoseObservation> two(ref.obs.begin(), ref.obs.begin() + 2);
+  EXPECT_EQ(poseCovariance(ref.T_true, two, {}, ref.p).norm(), 0.0);
 }

@@ -37,6 +37,16 @@ std::vector<ParamSpec> LoopClosingParams::specs() {
              "global BA in two passes: optimise, drop the observations over the chi2 95% bound, optimise again (as "
              "local BA and ORB-SLAM3's merge BA; ORB-SLAM2's global BA keeps every observation: false). Points fused "
              "wrongly across a merge otherwise pull the two maps apart (docs/slam.md)"),
+      P_int("global_ba_again_after", d.global_ba_again_after,
+            "a second global BA this many keyframes after a loop or merge (0 = none, as ORB-SLAM). The first one "
+            "welds the two parts with the closing keyframe's view only; where that view is far structure at one "
+            "depth its height and pitch trade against each other (on shift_dark 2-4 cm predicted from the "
+            "matches at one pixel, event position_sigma_m) and the keyframes after it add the links that "
+            "separate them (docs/changing.md)", 0),
+      P_bool("global_ba_at_end", d.global_ba_at_end,
+             "a run that closed a loop or merge ends with a global BA of the current map, so that the trajectory and "
+             "map it writes use the keyframes after the last event too (an offline result; the poses given while "
+             "running are not changed by it; ORB-SLAM: no)"),
       P_bool("merge_maps", d.merge_maps, "a candidate in another map of the atlas merges that map into the current one"),
   };
 }
@@ -57,6 +67,8 @@ LoopClosingParams LoopClosingParams::fromParams(const Params& p) {
   l.global_ba = p.getBool("global_ba");
   l.global_ba_iterations = static_cast<int>(p.getInt("global_ba_iterations"));
   l.global_ba_reject_outliers = p.getBool("global_ba_reject_outliers");
+  l.global_ba_again_after = static_cast<int>(p.getInt("global_ba_again_after"));
+  l.global_ba_at_end = p.getBool("global_ba_at_end");
   l.merge_maps = p.getBool("merge_maps");
   return l;
 }
@@ -75,6 +87,7 @@ std::string LoopEvent::json() const {
   j["matches"] = matches;
   j["correction_m"] = correction_m;
   j["correction_deg"] = correction_deg;
+  j["position_sigma_m"] = position_sigma_m;
   return j.dump();
 }
 
@@ -99,6 +112,13 @@ void LoopCloser::start() { worker_.start(); }
 void LoopCloser::stop() { worker_.stop(); }
 
 void LoopCloser::waitIdle() { worker_.waitIdle(); }
+
+void LoopCloser::finish(Map& current, int frame) {
+  if (!p_.global_ba_at_end || loops_ + merges_ == 0) return;
+  DSLAM_LOG(Info, "global BA at the end of the run (" << loops_ << " loops, " << merges_ << " merges closed)");
+  StageTimer::Scope t(timer_, "global_ba_at_end", frame);
+  globalBundleAdjustment(current);
+}
 
 // ---------------------------------------------------------------------------
 // Detection
@@ -156,6 +176,18 @@ void LoopCloser::process(const KeyFramePtr& kfp) {
       correctLoop(kf, cand, type, nullptr);
     }
     if (p_.global_ba) {
+      StageTimer::Scope t(timer_, "global_ba", kf->frame_index);
+      globalBundleAdjustment(*map);
+    }
+    if (mapper_) mapper_->resume();
+    keyframes_to_second_ba_ = p_.global_ba && p_.global_ba_again_after > 0 ? p_.global_ba_again_after : -1;
+    second_ba_map_ = map->id;
+  } else if (keyframes_to_second_ba_ > 0 && map->id == second_ba_map_ && --keyframes_to_second_ba_ == 0) {
+    keyframes_to_second_ba_ = -1;
+    DSLAM_LOG(Info, "second global BA, " << p_.global_ba_again_after << " keyframes after the last loop or merge (keyframe "
+                                         << kf->id << ", frame " << kf->frame_index << ")");
+    if (mapper_) mapper_->requestPause();
+    {
       StageTimer::Scope t(timer_, "global_ba", kf->frame_index);
       globalBundleAdjustment(*map);
     }

@@ -22,6 +22,7 @@ void LoopCloser::correctLoop(KeyFrame* cur, Candidate& c, LoopEvent::Type type, 
   ev.other_map = c.kf->map->id;
   ev.inliers = c.inliers;
   ev.matches = c.total;
+  ev.position_sigma_m = c.position_sigma;
 
   SE3 Tcw_corr;
   if (other) {

@@ -1,5 +1,6 @@
 // LoopCloser, geometric verification: SE(3) RANSAC (Horn/Umeyama on 3D-3D
 // matches) and guided matching of a loop candidate.
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -91,7 +92,8 @@ bool LoopCloser::ransacSE3(KeyFrame* cur, KeyFrame* cand, const std::vector<MapP
   return countInliers(cur, cand, matches, T12, &inlier) >= p_.min_inliers;
 }
 
-bool LoopCloser::refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw) const {
+bool LoopCloser::refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw,
+                                  double* position_sigma) const {
   std::vector<PoseObservation> obs;
   for (size_t i = 0; i < matched.size(); i++) {
     const MapPointPtr& mp = matched[i];
@@ -114,6 +116,10 @@ bool LoopCloser::refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>&
                                               << " m");
   if (r.inliers < p_.min_inliers) return false;
   Tcw = T;
+  if (position_sigma) {
+    const Eigen::Matrix3d S = poseCovariance(T, obs, out, pp).topLeftCorner<3, 3>();
+    *position_sigma = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S).eigenvalues().maxCoeff()));
+  }
   return true;
 }
 
@@ -149,7 +155,7 @@ bool LoopCloser::verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Cand
     SE3 Tcw_corr = c.T12 * cand->T_cw();
     std::vector<MapPointPtr> matched = c.matches;
     guided.searchByProjection(cur, Tcw_corr, c.loop_points, matched, 10);
-    if (p_.refine_correction && refineCorrection(cur, matched, Tcw_corr)) {
+    if (p_.refine_correction && refineCorrection(cur, matched, Tcw_corr, &c.position_sigma)) {
       c.T12 = Tcw_corr * cand->T_wc();
       matched = c.matches;  // matched again with the refined pose
       guided.searchByProjection(cur, Tcw_corr, c.loop_points, matched, 10);

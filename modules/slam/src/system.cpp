@@ -808,6 +808,7 @@ void System::shutdown() {
     loop_->waitIdle();
     loop_->stop();
     loop_->processAll();
+    loop_->finish(*map(), tracker_->records().empty() ? 0 : tracker_->records().back().frame_index);
   }
   detectors_.clear();
 }

@@ -101,6 +101,24 @@ PoseOptimizerResult optimizePose(SE3& T_cw, const std::vector<PoseObservation>& 
   return res;
 }
 
+Eigen::Matrix<double, 6, 6> poseCovariance(const SE3& T_cw, const std::vector<PoseObservation>& obs,
+                                           const std::vector<char>& outlier, const PoseOptimizerParams& p) {
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Vector3d e;
+  Eigen::Matrix<double, 3, 6> J;
+  int dim = 2, n = 0;
+  for (size_t i = 0; i < obs.size(); i++) {
+    if (i < outlier.size() && outlier[i]) continue;
+    if (!residual(T_cw, obs[i], p, e, J, dim)) continue;
+    H.noalias() += obs[i].information * J.transpose() * J;
+    n++;
+  }
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(H);
+  if (n < 3 || ldlt.info() != Eigen::Success || !ldlt.isPositive() || ldlt.vectorD().minCoeff() <= 0)
+    return Eigen::Matrix<double, 6, 6>::Zero();
+  return ldlt.solve(Eigen::Matrix<double, 6, 6>::Identity());
+}
+
 PoseOptimizerResult optimizePoseOlderFirst(SE3& T_cw, const std::vector<PoseObservation>& obs,
                                           const std::vector<char>& young, int min_older, std::vector<char>& outlier,
                                           const PoseOptimizerParams& p, bool* checked) {

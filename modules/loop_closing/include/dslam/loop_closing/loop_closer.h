@@ -47,6 +47,8 @@ struct LoopClosingParams {
   bool global_ba = true;           ///< full BA after a loop (ORB-SLAM2: yes)
   int global_ba_iterations = 10;
   bool global_ba_reject_outliers = true;  ///< optimise, drop chi2 outliers, optimise again (ORB-SLAM2's GBA: no)
+  int global_ba_again_after = 0;   ///< keyframes after a loop/merge before a second global BA (0 = none, as ORB-SLAM)
+  bool global_ba_at_end = false;   ///< a run that closed a loop or merge ends with a global BA (ORB-SLAM: no)
   bool merge_maps = true;          ///< candidates in other maps merge them into the current one
   uint64_t seed = 42;
 
@@ -62,6 +64,10 @@ struct LoopEvent {
   int64_t map = -1, other_map = -1;
   int inliers = 0, matches = 0;
   double correction_m = 0, correction_deg = 0;  ///< change of the current keyframe's pose
+  /// Predicted std [m] of the corrected camera position along its weakest
+  /// axis, from the refinement's inliers at one pixel of keypoint noise
+  /// (poseCovariance); -1 when the correction was not refined.
+  double position_sigma_m = -1;
   std::string json() const;  ///< one JSON object, "event": "loop" | "merge"
 };
 
@@ -81,6 +87,10 @@ class LoopCloser {
   void stop();
   /** Waits until the queue is empty and no correction is running. */
   void waitIdle();
+  /** End of the run (after stop() and processAll()): the global BA of
+   *  `current` when global_ba_at_end is set and the run closed a loop or
+   *  merge; timed as stage global_ba_at_end in `frame` (the last one). */
+  void finish(Map& current, int frame);
 
   int loops() const { return loops_; }
   int merges() const { return merges_; }
@@ -92,13 +102,15 @@ class LoopCloser {
     std::vector<MapPointPtr> matches;  ///< per current keypoint: loop point
     std::vector<MapPointPtr> loop_points;
     int inliers = 0, total = 0;
+    double position_sigma = -1;     ///< refinement's camera-position std [m], weakest axis (-1: not refined)
   };
 
   void process(const KeyFramePtr& kf);
   bool verify(KeyFrame* cur, const std::vector<KeyFrame*>& cands, Candidate& out);
   /** Pose-only refinement of the corrected T_cw of `cur` on its matched
    *  points (reprojection errors); false (Tcw unchanged) with too few inliers. */
-  bool refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw) const;
+  bool refineCorrection(KeyFrame* cur, const std::vector<MapPointPtr>& matched, SE3& Tcw,
+                        double* position_sigma = nullptr) const;
   bool ransacSE3(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, SE3& T12,
                  std::vector<char>& inlier);
   int countInliers(KeyFrame* cur, KeyFrame* cand, const std::vector<MapPointPtr>& matches, const SE3& T12,
@@ -117,6 +129,8 @@ class LoopCloser {
   std::function<void(const LoopEvent&)> on_event_;
 
   int64_t last_loop_kf_ = -1000000;
+  int keyframes_to_second_ba_ = -1;  ///< countdown to the second global BA (-1: none due)
+  int64_t second_ba_map_ = -1;       ///< the map it is due in (a new map after a loss cancels it)
   int loops_ = 0, merges_ = 0;
   Worker<KeyFramePtr> worker_;  ///< last member: its thread stops before the rest is destroyed
 };

@@ -39,6 +39,16 @@ struct PoseOptimizerResult {
 PoseOptimizerResult optimizePose(SE3& T_cw, const std::vector<PoseObservation>& obs, std::vector<char>& outlier,
                                  const PoseOptimizerParams& p);
 
+/** Covariance of a pose estimated from `obs` (the ones not flagged in
+ *  `outlier`, which may be empty): the inverse of the Gauss-Newton
+ *  information sum_i J_i^T w_i J_i at T_cw, for keypoint noise of one pixel
+ *  at level 0 (w_i = obs[i].information). Order [rho; phi] of the left
+ *  perturbation exp(delta) * T_cw, so the top-left 3x3 block is the
+ *  covariance of the camera position in the camera's axes. Zero when the
+ *  information is singular (fewer than 3 observations in front). */
+Eigen::Matrix<double, 6, 6> poseCovariance(const SE3& T_cw, const std::vector<PoseObservation>& obs,
+                                           const std::vector<char>& outlier, const PoseOptimizerParams& p);
+
 /** optimizePose, with the observations flagged `young` (map points made
  *  moments ago) checked against the others first: when at least
  *  `min_older` older observations remain inliers of a pose optimised on
