@@ -116,8 +116,7 @@ void LoopCloser::waitIdle() { worker_.waitIdle(); }
 void LoopCloser::finish(Map& current, int frame) {
   if (!p_.global_ba_at_end || loops_ + merges_ == 0) return;
   DSLAM_LOG(Info, "global BA at the end of the run (" << loops_ << " loops, " << merges_ << " merges closed)");
-  StageTimer::Scope t(timer_, "global_ba_at_end", frame);
-  globalBundleAdjustment(current);
+  globalBundleAdjustment(current, "global_ba_at_end", frame);
 }
 
 // ---------------------------------------------------------------------------
@@ -175,10 +174,7 @@ void LoopCloser::process(const KeyFramePtr& kfp) {
       std::lock_guard<std::recursive_mutex> lk(map->update_mutex);
       correctLoop(kf, cand, type, nullptr);
     }
-    if (p_.global_ba) {
-      StageTimer::Scope t(timer_, "global_ba", kf->frame_index);
-      globalBundleAdjustment(*map);
-    }
+    if (p_.global_ba) globalBundleAdjustment(*map, "global_ba", kf->frame_index);
     if (mapper_) mapper_->resume();
     keyframes_to_second_ba_ = p_.global_ba && p_.global_ba_again_after > 0 ? p_.global_ba_again_after : -1;
     second_ba_map_ = map->id;
@@ -187,10 +183,7 @@ void LoopCloser::process(const KeyFramePtr& kfp) {
     DSLAM_LOG(Info, "second global BA, " << p_.global_ba_again_after << " keyframes after the last loop or merge (keyframe "
                                          << kf->id << ", frame " << kf->frame_index << ")");
     if (mapper_) mapper_->requestPause();
-    {
-      StageTimer::Scope t(timer_, "global_ba", kf->frame_index);
-      globalBundleAdjustment(*map);
-    }
+    globalBundleAdjustment(*map, "global_ba", kf->frame_index);
     if (mapper_) mapper_->resume();
   }
   {

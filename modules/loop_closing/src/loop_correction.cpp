@@ -187,7 +187,8 @@ void LoopCloser::essentialGraph(Map& map, KeyFrame* fixed_kf, KeyFrame* cur, con
   }
 }
 
-void LoopCloser::globalBundleAdjustment(Map& map) {
+void LoopCloser::globalBundleAdjustment(Map& map, const char* stage, int frame) {
+  StageTimer::Scope timed(timer_, stage, frame);
   BAProblem prob;
   std::vector<KeyFrame*> kfs;
   std::vector<MapPointPtr> pts;

@@ -118,7 +118,8 @@ class LoopCloser {
   void correctLoop(KeyFrame* cur, Candidate& c, LoopEvent::Type type, const std::shared_ptr<Map>& other);
   void essentialGraph(Map& map, KeyFrame* fixed_kf, KeyFrame* cur, const std::map<int64_t, SE3>& non_corrected,
                       const std::map<int64_t, std::set<int64_t>>& new_links);
-  void globalBundleAdjustment(Map& map);
+  /** Full BA of `map`, timed as `stage` in `frame`. */
+  void globalBundleAdjustment(Map& map, const char* stage, int frame);
 
   LoopClosingParams p_;
   std::shared_ptr<Backend> backend_;
