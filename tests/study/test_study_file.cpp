@@ -8,6 +8,7 @@
 #include "dslam/config/pipeline.h"
 #include "dslam/core/error.h"
 #include "dslam/core/registry.h"
+#include "dslam/study/runner.h"
 #include "dslam/study/study.h"
 #include "test_support.h"
 
@@ -136,6 +137,41 @@ TEST_F(StudyFile, SceneCacheKeyFollowsResolvedTextAndOverrides) {
   const std::string f = write(test::cat("bases: {b: ", test::source("config/pipelines/orbslam_baseline.yaml"),
                                         "}\ndatasets:\n  d: {scenario: walking_xyz.yaml, frames: 30}\n"));
   EXPECT_EQ(study::loadStudy(f).datasets[0].cacheName(), k1);
+}
+
+// A scene cache entry that is a link to a deleted folder (a study's scenes
+// linked into a shared cache, then that study deleted) is rendered again in
+// its place; something else in the way is an error naming it, not a cell
+// that fails with "dataset not found".
+TEST_F(StudyFile, SceneCacheRendersAgainOverADanglingLink) {
+  const std::string f =
+      write(test::cat("bases: {b: ", test::source("config/pipelines/orbslam_baseline.yaml"), "}\ndatasets:\n  d: {scenario: ",
+                      test::source("config/scenarios/static_office.yaml"),
+                      ", frames: 3, resolution: [160, 120], right: false, labels: false}\n"));
+  const study::Dataset d = study::loadStudy(f).datasets[0];
+  const fs::path cache = dir_ + "/cache", entry = cache / d.cacheName();
+  fs::create_directories(cache);
+  fs::create_directory_symlink(dir_ + "/deleted_study/scenes/x", entry);
+  ASSERT_TRUE(fs::is_symlink(entry));
+  EXPECT_EQ(study::prepareDataset(d, cache.string(), false), entry.string());
+  EXPECT_FALSE(fs::is_symlink(entry));
+  EXPECT_TRUE(fs::exists(entry / "groundtruth.txt"));
+  EXPECT_TRUE(fs::exists(entry / "rgb.txt"));
+  // Rendered: the entry is used as it is.
+  EXPECT_EQ(study::prepareDataset(d, cache.string(), false), entry.string());
+  // A file in the way.
+  fs::remove_all(entry);
+  test::writeFile(entry.string(), "not a scene\n");
+  try {
+    study::prepareDataset(d, cache.string(), false);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(entry.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("remove it"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::is_regular_file(entry));  // not deleted: it is not ours
+  for (const auto& e : fs::directory_iterator(cache))  // no temporary render left behind
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
 TEST_F(StudyFile, ErrorsNameFileLineAndKey) {

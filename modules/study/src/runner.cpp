@@ -455,6 +455,12 @@ std::string prepareDataset(const Dataset& d, const std::string& scene_cache, boo
   if (!d.isScenario()) return d.path;
   const fs::path dir = fs::path(scene_cache) / d.cacheName();
   if (fs::exists(dir / "groundtruth.txt")) return dir.string();
+  std::error_code ec;
+  if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec)) {  // its target was deleted
+    DSLAM_LOG(Warn, "scene cache: " << dir.string() << " links to " << fs::read_symlink(dir, ec).string()
+                                    << ", which is gone; rendering the scene again in its place");
+    fs::remove(dir, ec);
+  }
   fs::create_directories(scene_cache);
   const fs::path tmp = fs::path(scene_cache) / (d.cacheName() + ".tmp." + hostTag());
   synth::ScenarioOverrides ov;
@@ -474,9 +480,14 @@ std::string prepareDataset(const Dataset& d, const std::string& scene_cache, boo
               << dir.string() << std::endl;
   synth::renderToFolder(d.scenario, tmp.string(), ov, wo);
   writeAtomic(tmp / "dslam_scene_key.txt", d.scenario_key_text);
-  std::error_code ec;
   fs::rename(tmp, dir, ec);  // another process may have rendered it meanwhile: keep theirs
-  if (ec) fs::remove_all(tmp, ec);
+  if (ec) {
+    const std::string why = ec.message();
+    fs::remove_all(tmp, ec);
+    if (!fs::exists(dir / "groundtruth.txt"))
+      throw Error("cannot put the rendered scene " + d.name + " at " + dir.string() + " (" + why +
+                  "): something that is not a rendered scene is in the way; remove it");
+  }
   if (log_progress) std::cout << "  rendered in " << fmtDuration(nowSeconds() - t0) << std::endl;
   return dir.string();
 }
