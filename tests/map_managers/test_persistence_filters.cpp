@@ -533,7 +533,7 @@ TEST(ObjectPersistenceFilter, AsksForAKeyFrameWhenAnObjectInViewHasNoEstablished
   ASSERT_GE(on, 10);
   std::vector<MapPointPtr> matched(f.size());
   EXPECT_TRUE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
-  f.input.timestamp = 1.5;  // within new_object_keyframe_gap (1 s): once is enough
+  f.input.timestamp = 1.25;  // within new_object_keyframe_gap (0.5 s): once is enough
   EXPECT_FALSE(filter->wantsKeyFrame(s.map, f, pose, view.cam, matched));
   // Matched to established points (seen by 3 keyframes): nothing to ask for.
   f.input.timestamp = 3.0;

@@ -276,7 +276,10 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "mapped (ours; 0 = off: static objects found by the semantic map 18/20 -> 8/20 on the changing scenes; "
             "docs/changing.md)",
             0, 100000),
-      P_double("new_object_keyframe_gap", 1.0, "at most one such keyframe request per this many seconds", 0, 1e9),
+      P_double("new_object_keyframe_gap", 0.5,
+               "at most one such keyframe request per this many seconds (1 s before 2026-11-28: more stale objects "
+               "on shift_dark; docs/changing.md)",
+               0, 1e9),
       P_double("place_check_gap", 2.0,
                "the whole place of an active or dormant object not seen for long_term_s in view asks for a keyframe, "
                "at most once per this many seconds per object (and one request of any kind per "
