@@ -174,6 +174,35 @@ TEST_F(StudyFile, SceneCacheRendersAgainOverADanglingLink) {
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
+// Every study and pipeline shipped in config/ loads and validates (bases,
+// overlays, datasets, parameters): a renamed parameter or scene breaks here,
+// not in a user's hour-long study.
+TEST_F(StudyFile, EveryShippedStudyAndPipelineLoads) {
+  size_t studies = 0, pipelines = 0;
+  for (const auto& e : fs::directory_iterator(test::source("config/studies"))) {
+    if (e.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(e.path().string());
+    try {
+      EXPECT_FALSE(study::loadStudy(e.path().string()).plan().empty());
+    } catch (const std::exception& ex) {
+      ADD_FAILURE() << ex.what();
+    }
+    studies++;
+  }
+  for (const auto& e : fs::recursive_directory_iterator(test::source("config/pipelines"))) {
+    if (e.path().extension() != ".yaml" || e.path().parent_path().filename() == "common") continue;
+    SCOPED_TRACE(e.path().string());
+    try {
+      EXPECT_FALSE(config::loadPipeline(e.path().string()).name.empty());
+    } catch (const std::exception& ex) {
+      ADD_FAILURE() << ex.what();
+    }
+    pipelines++;
+  }
+  EXPECT_GE(studies, 14u);
+  EXPECT_GE(pipelines, 16u);
+}
+
 TEST_F(StudyFile, ErrorsNameFileLineAndKey) {
   struct Case {
     std::string text;
