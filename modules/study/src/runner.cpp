@@ -454,7 +454,8 @@ std::string sceneCacheDir(const RunOptions& o) {
 std::string prepareDataset(const Dataset& d, const std::string& scene_cache, bool log_progress) {
   if (!d.isScenario()) return d.path;
   const fs::path dir = fs::path(scene_cache) / d.cacheName();
-  if (fs::exists(dir / "groundtruth.txt")) return dir.string();
+  auto rendered = [&dir] { return fs::exists(dir / "groundtruth.txt"); };  // written before the rename: complete
+  if (rendered()) return dir.string();
   std::error_code ec;
   if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec)) {  // its target was deleted
     DSLAM_LOG(Warn, "scene cache: " << dir.string() << " links to " << fs::read_symlink(dir, ec).string()
@@ -484,7 +485,7 @@ std::string prepareDataset(const Dataset& d, const std::string& scene_cache, boo
   if (ec) {
     const std::string why = ec.message();
     fs::remove_all(tmp, ec);
-    if (!fs::exists(dir / "groundtruth.txt"))
+    if (!rendered())
       throw Error("cannot put the rendered scene " + d.name + " at " + dir.string() + " (" + why +
                   "): something that is not a rendered scene is in the way; remove it");
   }
