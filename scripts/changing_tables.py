@@ -2,11 +2,14 @@
 """Tables of docs/results.md section 7 from a run of config/studies/changing.yaml.
 
   changing_tables.py STUDY_OUT [--dslam build/bin/dslam] [--variants changing_slam,...]
-                    [--min-points N] [--objects-only]
+                    [--min-points N] [--min-sightings S [--confirm-points P]] [--objects-only]
 
 --min-points N scores only the estimated objects of at least N map points
 (`dslam eval objects --min-points`; from runs with
 outputs.objects_min_points: 1, config/studies/changing_min_points.yaml);
+--min-sightings S (with --confirm-points P) scores only the objects seen by
+at least S keyframes or of at least P points (`dslam eval objects
+--min-sightings`, the trade-off of outputs.objects_min_sightings);
 --objects-only prints the semantic map's table and totals only.
 
 Datasets named after a changing scene with a seed suffix (`shift_dark_s8`,
@@ -72,9 +75,10 @@ def scene_dir(out, scene):
     return found[-1] if found else None
 
 
-def eval_objects(dslam, run, scene, min_points=0):
+def eval_objects(dslam, run, scene, min_points=0, min_sightings=0, confirm_points=0):
     with tempfile.NamedTemporaryFile(suffix=".json") as tf:
-        r = subprocess.run([dslam, "eval", "objects", run, scene, "--json", tf.name, "--min-points", str(min_points)],
+        r = subprocess.run([dslam, "eval", "objects", run, scene, "--json", tf.name, "--min-points", str(min_points),
+                            "--min-sightings", str(min_sightings), "--confirm-points", str(confirm_points)],
                            capture_output=True, text=True)
         if r.returncode != 0:
             return None
@@ -87,6 +91,8 @@ def main():
     ap.add_argument("--dslam", default="build/bin/dslam")
     ap.add_argument("--variants", default="changing_slam,changing_slam_no_object_keyframes")
     ap.add_argument("--min-points", type=int, default=0)
+    ap.add_argument("--min-sightings", type=int, default=0)
+    ap.add_argument("--confirm-points", type=int, default=0)
     ap.add_argument("--objects-only", action="store_true")
     a = ap.parse_args()
     variants = a.variants.split(",")
@@ -105,7 +111,7 @@ def main():
             run, scene = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run"), scene_dir(a.out, sc)
             if not scene or not os.path.exists(run + "/objects.json"):
                 continue
-            m = eval_objects(a.dslam, run, scene, a.min_points)
+            m = eval_objects(a.dslam, run, scene, a.min_points, a.min_sightings, a.confirm_points)
             if m is None:
                 print(f"| {v} | {sc} | (eval failed) | | | | | |")
                 continue

@@ -257,6 +257,16 @@ void setup(CLI::App& sub) {
                   "from a run with objects_min_points: 1; 0 = every object of the file)")
       ->capture_default_str()
       ->check(app::kNonNegative);
+  obj->add_option("--min-sightings", obj_o.eo.min_sightings,
+                  "leave out estimated objects seen by fewer keyframes, unless of --confirm-points map points (the "
+                  "trade-off of outputs.objects_min_sightings from a run with the default 1; 0 or 1 = every object)")
+      ->capture_default_str()
+      ->check(app::kNonNegative);
+  obj->add_option("--confirm-points", obj_o.eo.confirm_points,
+                  "with --min-sightings: objects of this many map points are kept however few keyframes saw them "
+                  "(outputs.objects_confirm_points; 0 = no exception)")
+      ->capture_default_str()
+      ->check(app::kNonNegative);
   obj->add_option("--max-dt", obj_o.eo.max_dt, "trajectory association threshold, seconds")
       ->capture_default_str()
       ->check(app::kPositive);

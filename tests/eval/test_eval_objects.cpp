@@ -359,6 +359,64 @@ TEST(EvalObjects, MinPointsLeavesOutObjectsOfFewerPoints) {
   EXPECT_NE(eval::toText(r).find("2 of fewer than 5 points left out"), std::string::npos);
 }
 
+TEST(EvalObjects, MinSightingsLeavesOutTentativeObjectsUnlessLarge) {
+  // A duplicate of the chair seen by one keyframe, a stale suitcase seen by
+  // one keyframe with 30 points, the rest seen by 4 keyframes.
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  for (auto& o : m) o["sightings"] = 4;
+  m.push_back(estObject(21, 62, centre(kChair, 1.0) + Eigen::Vector3d(0.05, 0, 0), true));
+  m.back()["sightings"] = 1;
+  m.back()["points"] = 6;
+  m[3]["active"] = true;  // the suitcase's old object is still active ...
+  m[3]["sightings"] = 1;  // ... seen once ...
+  m[3]["points"] = 30;    // ... with 30 points
+  const std::string run = writeRun(d + "/run", m);
+  auto eval = [&](int min_sightings, int confirm_points) {
+    eval::ObjectEvalOptions o;
+    o.min_sightings = min_sightings;
+    o.confirm_points = confirm_points;
+    return eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"),
+                                 traj::readTum(run + "/trajectory.txt"), o);
+  };
+  const auto all = eval(1, 0);
+  EXPECT_EQ(all.false_objects, 1);
+  EXPECT_EQ(all.stale, 1);
+  EXPECT_EQ(all.est_too_few_sightings, 0u);
+  const auto r = eval(2, 0);
+  EXPECT_EQ(r.est_too_few_sightings, 2u);
+  EXPECT_EQ(r.est.size(), m.size() - 2);
+  EXPECT_EQ(r.false_objects, 0);
+  EXPECT_EQ(r.stale, 0);
+  EXPECT_EQ(r.static_found, 2);
+  EXPECT_EQ(r.moved_found, 1);
+  EXPECT_NE(eval::toText(r).find("2 seen by fewer than 2 keyframes left out"), std::string::npos);
+  const auto big = eval(2, 20);  // 30 points: the suitcase is kept, the 6-point duplicate is not
+  EXPECT_EQ(big.est_too_few_sightings, 1u);
+  EXPECT_EQ(big.false_objects, 0);
+  EXPECT_EQ(big.stale, 1);
+  EXPECT_NE(eval::toText(big).find("(and of fewer than 20 points) left out"), std::string::npos);
+}
+
+TEST(EvalObjects, MinSightingsOnAFileWithoutSightingsNamesIt) {
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  for (auto& o : m) o.erase("sightings");
+  const std::string run = writeRun(d + "/run", m);
+  EXPECT_EQ(evaluate(run, scene).static_found, 2);  // without --min-sightings the file is fine
+  eval::ObjectEvalOptions o;
+  o.min_sightings = 2;
+  try {
+    eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"),
+                          traj::readTum(run + "/trajectory.txt"), o);
+    FAIL() << "expected an error";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("objects.json: object 1 has no 'sightings'"), std::string::npos) << e.what();
+  }
+}
+
 TEST(EvalObjects, AlignmentUndoesAKnownOffset) {
   const std::string d = tempDir("evalobj");
   const std::string scene = writeScene(d + "/scene");

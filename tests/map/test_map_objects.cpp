@@ -53,6 +53,19 @@ TEST(MapObject, RobustBoxIgnoresAFewStrayPoints) {
   EXPECT_EQ(lo, Eigen::Vector3d::Zero());
 }
 
+TEST(MapObject, ConfirmedBySightingsOrByPoints) {
+  MapObject o;
+  for (const auto& p : blob({0, 0, 2}, 12, 0)) o.addPoint(p);
+  o.sightings = 1;
+  EXPECT_TRUE(o.confirmed(1, 0));    // the default: every object
+  EXPECT_FALSE(o.confirmed(2, 0));   // seen by one keyframe: tentative
+  EXPECT_FALSE(o.confirmed(2, 13));  // 12 points < 13
+  EXPECT_TRUE(o.confirmed(2, 12));   // ... but 12 points are enough for 12
+  o.sightings = 2;
+  EXPECT_TRUE(o.confirmed(2, 0));
+  EXPECT_FALSE(o.confirmed(3, 0));
+}
+
 TEST(MapObject, LongTermDataAssociationMergesNearAndCreatesFar) {
   std::map<int64_t, MapObjectPtr> objects;
   LtdaParams p;  // threshold 0.25 m

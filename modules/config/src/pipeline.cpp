@@ -94,6 +94,15 @@ std::vector<ParamSpec> outputParamSpecs() {
             "rest; fragments); `dslam eval objects --min-points` scores higher values from one run with 1 "
             "(docs/results.md section 7)",
             1),
+      P_int("objects_min_sightings", 1,
+            "objects.json and objects.ply leave out tentative objects: seen by fewer keyframes than this (and of "
+            "fewer than objects_confirm_points points). 2: fewer stale and false objects, a few small moved ones "
+            "lost; `dslam eval objects --min-sightings` scores it from one run (docs/results.md section 7)",
+            1),
+      P_int("objects_confirm_points", 0,
+            "with objects_min_sightings: objects of this many map points are kept however few keyframes saw them "
+            "(0 = no exception)",
+            0),
       P_string("resolved_config", "config.resolved.yaml", "fully resolved configuration copy"),
       P_string("events", "events.jsonl", "loop/merge/lost events, one JSON object per line ('' = none)"),
       P_string("atlas", "", "save the atlas to this file at the end ('' = do not save)"),

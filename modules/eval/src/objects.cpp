@@ -143,7 +143,7 @@ EstObjects readEstObjects(const std::string& file) {
     e.last_seen_kf = at.integer(o, "last_seen_kf", -1);
     e.first_seen_t = at.number(o, "first_seen_t", 0.0);
     e.last_seen_t = at.number(o, "last_seen_t", 0.0);
-    e.sightings = static_cast<int>(at.integer(o, "sightings", 0));
+    e.sightings = static_cast<int>(at.integer(o, "sightings", -1));
     for (int k = 0; k < 3; k++)
       if (e.box_min[k] > e.box_max[k])
         at.fail("box_min is above box_max on axis " + std::string(1, "xyz"[k]) + " (" + std::to_string(e.box_min[k]) +
@@ -523,6 +523,15 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       r.est_too_few_points++;
       continue;
     }
+    if (opt.min_sightings > 1) {
+      if (e0.sightings < 0)
+        throw DataError(est.file + ": object " + std::to_string(e0.id) +
+                        " has no 'sightings' (--min-sightings needs them; leave it out for this file)");
+      if (e0.sightings < opt.min_sightings && !(opt.confirm_points > 0 && e0.points >= opt.confirm_points)) {
+        r.est_too_few_sightings++;
+        continue;
+      }
+    }
     EstObjectResult e;
     e.obj = e0;
     e.obj.centroid = r.alignment.apply(e0.centroid);
@@ -723,6 +732,10 @@ std::string toText(const ObjectEvalResult& r) {
   if (r.est_other_maps) o << "; " << r.est_other_maps << " of other maps not evaluated";
   if (r.est_too_few_points)
     o << "; " << r.est_too_few_points << " of fewer than " << opt.min_points << " points left out";
+  if (r.est_too_few_sightings)
+    o << "; " << r.est_too_few_sightings << " seen by fewer than " << opt.min_sightings << " keyframes"
+      << (opt.confirm_points > 0 ? " (and of fewer than " + std::to_string(opt.confirm_points) + " points)" : "")
+      << " left out";
   o << ")\n";
   o << "scene:     " << r.scene_dir << "\n";
   if (r.traj_poses) {
@@ -847,6 +860,9 @@ std::string toJson(const ObjectEvalResult& r) {
              {"min_visible_pixels", opt.min_visible_pixels},
              {"min_points", opt.min_points},
              {"estimated_too_few_points", r.est_too_few_points},
+             {"min_sightings", opt.min_sightings},
+             {"confirm_points", opt.confirm_points},
+             {"estimated_too_few_sightings", r.est_too_few_sightings},
              {"estimated", r.est.size()},
              {"estimated_other_maps", r.est_other_maps},
              {"static_total", r.static_total},

@@ -451,7 +451,9 @@ Trajectory writeOutputs(System& sys, const config::PipelineConfig& pc, const Run
     traj::writeTum(kp, kft, "dslam keyframe trajectory (T_wc), pipeline " + pc.name);
   if (const std::string mp = outPath(pc, out, "map"); !mp.empty()) sys.writePly(mp);
   sys.writeObjects(outPath(pc, out, "objects"), outPath(pc, out, "objects_ply"),
-                   static_cast<size_t>(pc.outputs.getInt("objects_min_points")));
+                   static_cast<size_t>(pc.outputs.getInt("objects_min_points")),
+                   static_cast<int>(pc.outputs.getInt("objects_min_sightings")),
+                   static_cast<size_t>(pc.outputs.getInt("objects_confirm_points")));
   if (const std::string tc = outPath(pc, out, "timing_csv"); !tc.empty()) {
     sys.timer().writeCsv(tc);
     sys.timer().writeMrptCsv((fs::path(out) / "timing_summary.csv").string());

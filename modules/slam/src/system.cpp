@@ -869,14 +869,16 @@ void System::writePly(const std::string& path) const {
   out.commit();
 }
 
-void System::writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points) const {
+void System::writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points,
+                          int min_sightings, size_t confirm_points) const {
   const auto cur = map();
   nlohmann::ordered_json objs = nlohmann::ordered_json::array();
   std::vector<MapObjectPtr> boxes;
   for (const auto& m : maps_->maps()) {
     std::lock_guard<std::recursive_mutex> lk(m->update_mutex);
     for (const auto& [id, o] : m->objects()) {
-      if (o->refresh() < min_points) continue;  // its points were culled
+      if (o->refresh() < min_points) continue;                      // its points were culled
+      if (!o->confirmed(min_sightings, confirm_points)) continue;  // tentative
       auto v3 = [](const Eigen::Vector3d& v) { return nlohmann::ordered_json::array({v.x(), v.y(), v.z()}); };
       objs.push_back({{"id", o->id},
                       {"map", m->id},

@@ -68,7 +68,7 @@ struct EstObject {
   bool dormant = false;
   int64_t first_seen_kf = -1, last_seen_kf = -1;
   double first_seen_t = 0, last_seen_t = 0;
-  int sightings = 0;
+  int sightings = -1;  ///< keyframes that saw it; -1 = the file does not say
 };
 
 struct EstObjects {
@@ -147,6 +147,12 @@ struct ObjectEvalOptions {
    *  file): the precision/recall trade-off of `outputs.objects_min_points`
    *  from one run that wrote every object. 0 = every object of the file. */
   int min_points = 0;
+  /** Estimated objects seen by fewer keyframes (their `sightings`) are left
+   *  out too, unless they have at least `confirm_points` map points: the
+   *  trade-off of `outputs.objects_min_sightings` from one run. 0 or 1 =
+   *  every object; a file without sightings is an error then. */
+  int min_sightings = 0;
+  int confirm_points = 0;  ///< see min_sightings; 0 = no exception
   double max_dt = 0.02;            ///< trajectory association, seconds
   /** The run and the scene do not match if the ATE of the alignment poses
    *  exceeds this (metres) or less than half the trajectory's poses have a
@@ -228,6 +234,7 @@ struct ObjectEvalResult {
   // inputs
   size_t est_in_file = 0, est_other_maps = 0, est_evaluated = 0;
   size_t est_too_few_points = 0;  ///< of the map, left out by min_points
+  size_t est_too_few_sightings = 0;  ///< of the map, left out by min_sightings
   std::vector<GtObjectResult> gt;
   std::vector<EstObjectResult> est;  ///< the objects of the map
   // headline

@@ -61,6 +61,12 @@ struct MapObject {
   bool contains(const Eigen::Vector3d& x) const {
     return (x.array() >= box_min.array()).all() && (x.array() <= box_max.array()).all();
   }
+  /** Confirmed for the semantic map output: seen by at least `min_sightings`
+   *  keyframes, or of at least `confirm_points` points (0 = no such
+   *  exception). Others are tentative (`outputs.objects_min_sightings`). */
+  bool confirmed(int min_sightings, size_t confirm_points) const {
+    return sightings >= min_sightings || (confirm_points > 0 && numPoints() >= confirm_points);
+  }
   /** Sets `active` on the object and on every one of its points. */
   void setActive(bool a);
   /** Makes `mp` one of its points: the point records the object and takes

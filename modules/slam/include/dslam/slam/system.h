@@ -121,9 +121,12 @@ class System {
    *  class, centroid, 3D box, belief, active, points, first/last seen, and
    *  the boxes of the current map's objects as PLY faces (green active, red
    *  inactive). Objects with fewer than `min_points` map points (the rest
-   *  culled; `outputs.objects_min_points`) are left out. An empty path
-   *  skips that file. */
-  void writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points) const;
+   *  culled; `outputs.objects_min_points`) are left out, and so are
+   *  objects seen by fewer than `min_sightings` keyframes that have fewer
+   *  than `confirm_points` points (`outputs.objects_min_sightings`, ...:
+   *  tentative objects). An empty path skips that file. */
+  void writeObjects(const std::string& json_path, const std::string& ply_path, size_t min_points,
+                    int min_sightings = 1, size_t confirm_points = 0) const;
 
   StageTimer& timer() { return timer_; }
   const CameraModel& camera() const { return frontend_->camera(); }
