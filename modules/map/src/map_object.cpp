@@ -302,6 +302,61 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
   return out;
 }
 
+size_t dropMissedObjectPoints(std::vector<ObjectCandidate>& candidates,
+                              const std::map<int64_t, MapObjectPtr>& objects, int64_t kf_id,
+                              const std::function<bool(int, const cv::Rect2f&)>& detected,
+                              const MissedObjectParams& p, int min_points) {
+  if (p.recent_keyframes <= 0 || candidates.empty()) return 0;
+  std::vector<const MapObject*> recent;  // established objects seen lately
+  for (const auto& [id, op] : objects) {
+    const MapObject& o = *op;
+    if (o.active && !o.dormant && o.sightings >= p.min_sightings && o.last_seen_kf >= 0 && o.last_seen_kf < kf_id &&
+        kf_id - o.last_seen_kf <= p.recent_keyframes && !o.points.empty())
+      recent.push_back(&o);
+  }
+  if (recent.empty()) return 0;
+  const double r2 = p.radius_m * p.radius_m;
+  size_t dropped = 0;
+  for (ObjectCandidate& c : candidates) {
+    std::vector<char> drop(c.points.size(), 0);
+    for (const MapObject* b : recent) {
+      if (b->class_id == c.class_id) continue;
+      std::vector<size_t> of_b;  // candidate points that are B's, or next to B's
+      size_t held = 0;
+      for (size_t k = 0; k < c.points.size(); k++) {
+        const MapPointPtr& mp = c.points[k];
+        if (mp->map_object == b->id && b->points.count(mp->id)) {
+          held++;
+          of_b.push_back(k);
+          continue;
+        }
+        if (r2 <= 0) continue;
+        for (const auto& [id, q] : b->points)
+          if (q && !q->bad && (q->pos - mp->pos).squaredNorm() <= r2) {
+            of_b.push_back(k);
+            break;
+          }
+      }
+      if (of_b.empty() || static_cast<double>(held) >= p.max_fraction * static_cast<double>(b->numPoints())) continue;
+      if (detected(b->class_id, c.box)) continue;  // B detected there: not missed
+      for (size_t k : of_b) drop[k] = 1;
+    }
+    size_t kept = 0;
+    for (size_t k = 0; k < c.points.size(); k++)
+      if (!drop[k]) c.points[kept++] = c.points[k];
+    if (kept == c.points.size()) continue;
+    dropped += c.points.size() - kept;
+    c.points.resize(kept);
+    c.centroid.setZero();
+    for (const auto& mp : c.points) c.centroid += mp->pos;
+    if (kept > 0) c.centroid /= static_cast<double>(kept);
+  }
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                  [&](const ObjectCandidate& c) { return static_cast<int>(c.points.size()) < min_points; }),
+                   candidates.end());
+  return dropped;
+}
+
 size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
                                size_t min_points) {
   size_t merges = 0;

@@ -145,6 +145,35 @@ class SmallCandidatePool {
   std::vector<Kept> kept_;
 };
 
+/** Points of a missed object (ours, beyond Changing-SLAM). */
+struct MissedObjectParams {
+  int recent_keyframes = 3;     ///< the object was seen in one of this many last keyframes (0 = off)
+  int min_sightings = 2;        ///< ... by at least this many keyframes in all (established)
+  double radius_m = 0.1;        ///< candidate points this near one of its points are its points too
+  double max_fraction = 0.5;    ///< no drop when the candidate holds this fraction of its points or more
+};
+
+/** When the detector misses an object B for a keyframe, the box of an
+ *  object of another class overlapping it labels B's keypoints with that
+ *  class, and the candidate made of them takes B's points (a chair in front
+ *  of a backpack becomes a "backpack" at the backpack's old place when the
+ *  backpack has moved behind it). Takes out of each candidate the points of
+ *  an active, not dormant object B of another class, seen by at least
+ *  `min_sightings` keyframes and in one of the last `recent_keyframes`
+ *  (before `kf_id`), when `detected(B's class, candidate box)` says no
+ *  detection of B's class overlaps the candidate's image box; also the
+ *  candidate's points within `radius_m` of one of B's points (new points
+ *  made on B in this keyframe). Unless the candidate holds `max_fraction`
+ *  of B's points or more: then B is more likely a wrong object made of the
+ *  candidate's thing, which association lets the candidate take back.
+ *  Centroids of the candidates are recomputed (image boxes kept); candidates left
+ *  with fewer than `min_points` points are erased. Returns the number of
+ *  points taken out. */
+size_t dropMissedObjectPoints(std::vector<ObjectCandidate>& candidates,
+                              const std::map<int64_t, MapObjectPtr>& objects, int64_t kf_id,
+                              const std::function<bool(int, const cv::Rect2f&)>& detected,
+                              const MissedObjectParams& p, int min_points);
+
 /** What long-term data association did with one candidate. */
 struct LtdaMatch {
   size_t candidate = 0;

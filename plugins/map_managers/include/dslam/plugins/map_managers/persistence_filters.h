@@ -55,6 +55,7 @@ struct PersistenceStats {
   int64_t reidentified_by_prior = 0;  ///< ... of them, confirmed with the motion of an object moved near them
   int64_t reidentified_as_part = 0;   ///< ... of them, dormant parts of an object of their class found moved near them
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
+  int64_t missed_points = 0;      ///< candidate points left out as a missed object's (dropMissedObjectPoints)
   std::string str() const;
 };
 
@@ -151,6 +152,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int evidence_keyframes_ = 3;
   std::unordered_map<int64_t, Evidence> pending_;  ///< by object id: evidence not decided on yet
   int small_candidate_keyframes_ = 5;
+  MissedObjectParams missed_;
   int undetected_keyframes_ = 1;
   SmallCandidatePool small_;  ///< candidates too small for an object, adding up
   /** A motion found by re-identification: a prior for objects near `from`. */
