@@ -269,7 +269,8 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "extent of its labelled keypoints) overlaps the candidate's image box (the detector missed it and the "
             "candidate's box labelled its keypoints), "
             "unless the candidate holds half of its points or more (ours; 0 = off, the default; 3 measured: fewer stale and "
-            "false objects, one shift_dark run 5.0 cm off after the return; docs/changing.md)",
+            "false objects held out and over seeds, but one stale object more on the study's shift_dark and one "
+            "shift_dark run 5.0 cm off after the return; docs/changing.md)",
             0, 1000),
       P_double("missed_object_radius", 0.1,
                "... and the candidate's points within this distance (m) of one of that object's points (new points "
