@@ -15,6 +15,7 @@
 #include "dslam/core/error.h"
 #include "dslam/core/format.h"
 #include "dslam/core/json_layout.h"
+#include "dslam/core/object_confirmed.h"
 #include "dslam/core/png.h"
 #include "dslam/trajectory/io.h"
 
@@ -527,7 +528,8 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       if (e0.sightings < 0)
         throw DataError(est.file + ": object " + std::to_string(e0.id) +
                         " has no 'sightings' (--min-sightings needs them; leave it out for this file)");
-      if (e0.sightings < opt.min_sightings && !(opt.confirm_points > 0 && e0.points >= opt.confirm_points)) {
+      if (!objectConfirmed(e0.sightings, static_cast<size_t>(std::max(0, e0.points)), opt.min_sightings,
+                           static_cast<size_t>(std::max(0, opt.confirm_points)))) {
         r.est_too_few_sightings++;
         continue;
       }

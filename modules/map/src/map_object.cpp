@@ -347,9 +347,7 @@ size_t dropMissedObjectPoints(std::vector<ObjectCandidate>& candidates,
     if (kept == c.points.size()) continue;
     dropped += c.points.size() - kept;
     c.points.resize(kept);
-    c.centroid.setZero();
-    for (const auto& mp : c.points) c.centroid += mp->pos;
-    if (kept > 0) c.centroid /= static_cast<double>(kept);
+    refreshCandidate(c);  // its centroid (none left: erased below)
   }
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                   [&](const ObjectCandidate& c) { return static_cast<int>(c.points.size()) < min_points; }),

@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "dslam/core/object_confirmed.h"
 #include "dslam/map/map_point.h"
 
 namespace dslam {
@@ -65,7 +66,7 @@ struct MapObject {
    *  keyframes, or of at least `confirm_points` points (0 = no such
    *  exception). Others are tentative (`outputs.objects_min_sightings`). */
   bool confirmed(int min_sightings, size_t confirm_points) const {
-    return sightings >= min_sightings || (confirm_points > 0 && numPoints() >= confirm_points);
+    return objectConfirmed(sightings, numPoints(), min_sightings, confirm_points);
   }
   /** Sets `active` on the object and on every one of its points. */
   void setActive(bool a);
