@@ -406,6 +406,52 @@ TEST(ObjectPersistenceFilter, PointsOutsideTheirScaleRangeAreNotExpected) {
   EXPECT_EQ(misses, 0);
 }
 
+TEST(ObjectPersistenceFilter, TentativeObjectsAreJudgedInTheShortTermWithTheOption) {
+  // An object seen by one keyframe whose place the next keyframes show with
+  // nothing of its class on it (a box's labels on another thing, seen once):
+  // the long-term gate holds the evidence back for long_term_s; with
+  // tentative_short_term it counts at once. A later sighting then counts
+  // however soon it comes.
+  for (const bool on : {false, true}) {
+    auto atlas = std::make_shared<Atlas>();
+    auto filter = makeFilter<ObjectPersistenceFilter>(
+        std::string("{dormant_after_s: 0, tentative_short_term: ") + (on ? "true" : "false") + "}", atlas);
+    Scene s(filter->currentMap());
+    filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+    const MapObject& o = onlyObject(*s.map);
+    ASSERT_EQ(o.sightings, 1);
+    // 0.5 s later: its points are there (found by their descriptors, not
+    // matched by tracking), nothing of its class detected.
+    filter->onKeyFrame(s.keyframe(0.5, poseAt({0.02, 0, 0}), true, false, false));
+    EXPECT_EQ(filter->stats().misses, on ? 1 : 0) << on;
+    EXPECT_EQ(filter->stats().tentative_misses, on ? 1 : 0) << on;
+    EXPECT_EQ(o.active, !on) << on;
+    EXPECT_NEAR(o.belief, on ? 0.18 : 0.5, 0.01) << on;  // p_detect 0.8, p_false 0.1
+    // Detected there again 0.5 s later: a sighting with the option (it had
+    // negative evidence since), none without (short term).
+    filter->onKeyFrame(s.keyframe(1.0, poseAt({0.04, 0, 0}), true));
+    EXPECT_EQ(o.sightings, 2) << on;
+    EXPECT_EQ(filter->stats().sightings, on ? 1 : 0) << on;
+    EXPECT_TRUE(o.active) << on;
+    EXPECT_EQ(filter->stats().reactivated, on ? 1 : 0) << on;
+    // Seen by two keyframes it is established: short gaps are no evidence again.
+    filter->onKeyFrame(s.keyframe(1.5, poseAt({0.06, 0, 0}), true, false, false));
+    EXPECT_EQ(filter->stats().misses, on ? 1 : 0) << on;
+    EXPECT_TRUE(o.active) << on;
+  }
+  // Detected in the next keyframe: no evidence either way (short term).
+  auto atlas = std::make_shared<Atlas>();
+  auto filter = makeFilter<ObjectPersistenceFilter>("{dormant_after_s: 0, tentative_short_term: true}", atlas);
+  Scene s(filter->currentMap());
+  filter->onKeyFrame(s.keyframe(0.0, poseAt({0, 0, 0}), true));
+  const MapObject& o = onlyObject(*s.map);
+  filter->onKeyFrame(s.keyframe(0.5, poseAt({0.02, 0, 0}), true, false, true));  // labelled, points not tracked
+  EXPECT_EQ(filter->stats().misses, 0);
+  EXPECT_EQ(filter->stats().sightings, 0);
+  EXPECT_DOUBLE_EQ(o.belief, 0.5);
+  EXPECT_TRUE(o.active);
+}
+
 TEST(ObjectPersistenceFilter, PointsFoundAgainWakeADormantObjectWithoutADetection) {
   // With undetected_keyframes 0 (off; see the next test for the default).
   auto atlas = std::make_shared<Atlas>();

@@ -126,7 +126,9 @@ void traceObject(const KeyFrame& kf, const MapObject& o, const char* what) {
 
 std::string PersistenceStats::str() const {
   return std::to_string(keyframes) + " keyframes, " + std::to_string(created) + " objects created, " +
-         std::to_string(sightings) + " sightings, " + std::to_string(misses) + " misses, " +
+         std::to_string(sightings) + " sightings, " + std::to_string(misses) + " misses" +
+         (tentative_misses > 0 ? " (" + std::to_string(tentative_misses) + " of tentative objects, short term)" : "") +
+         ", " +
          std::to_string(deactivated) + " deactivated, " + std::to_string(reactivated) + " reactivated, " +
          std::to_string(dormant) + " dormant, " + std::to_string(woken) + " woken" +
          (keyframe_requests > 0 ? ", " + std::to_string(keyframe_requests) + " keyframes requested" : "") +
@@ -284,6 +286,13 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "box, the floor between a chair's legs, are still there after it left) (ours; 0 = off: points found "
             "are a sighting without a detection; docs/changing.md)",
             0, 1000),
+      P_bool("tentative_short_term", false,
+             "an object seen by one keyframe only (tentative) is judged also in the keyframes right after that "
+             "sighting, when the long-term gate (long_term_keyframes, long_term_s) still holds back evidence: "
+             "negative evidence only (its place seen through, nothing of its class detected on it, its points not "
+             "found), and a later sighting of it counts however soon it comes. A false object made of one "
+             "keyframe's labels near the end of a run is otherwise never judged (ours; false = off, the default: "
+             "docs/changing.md)"),
       P_int("new_object_keypoints", 10,
             "a detected object with this many keypoints with depth, at most a fifth of them on established map "
             "points (seen by 3 keyframes), asks for a keyframe, so that objects seen while tracking needs none get "
@@ -350,6 +359,8 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   missed_.recent_keyframes = static_cast<int>(p.getInt("missed_object_keyframes"));
   missed_.radius_m = p.getDouble("missed_object_radius");
   undetected_keyframes_ = static_cast<int>(p.getInt("undetected_keyframes"));
+  tentative_short_term_ = p.getBool("tentative_short_term");
+  missed_lately_.clear();
   new_object_keypoints_ = static_cast<int>(p.getInt("new_object_keypoints"));
   new_object_gap_s_ = p.getDouble("new_object_keyframe_gap");
   last_request_t_ = -1e300;
@@ -591,7 +602,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
     const bool was_dormant = o.dormant;
     o.dormant = false;
-    if (was_dormant || longTerm(*kf, mt.previous_seen_kf, mt.previous_seen_t)) {
+    const bool missed_lately = missed_lately_.erase(o.id) > 0;  // short-term negative evidence since its sighting
+    if (was_dormant || missed_lately || longTerm(*kf, mt.previous_seen_kf, mt.previous_seen_t)) {
       o.belief = objectBeliefSighted(o.belief, mt.distance, static_cast<int>(o.numPoints()), belief_);
       stats_.sightings++;
     }
@@ -629,7 +641,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   for (auto& [id, op] : order) {
     MapObject& o = *op;
     if (seen.count(id)) continue;
-    if (!longTerm(*kf, o.last_seen_kf, o.last_seen_t)) continue;  // short gaps are no evidence
+    // Short gaps are no evidence, but for a tentative object (seen by one
+    // keyframe): negative evidence only, judged from the next keyframe on.
+    const bool short_term = !longTerm(*kf, o.last_seen_kf, o.last_seen_t);
+    const bool tentative = short_term && tentative_short_term_ && o.active && !o.dormant && o.sightings <= 1;
+    if (short_term && !tentative) continue;
     o.refresh();  // its points may have moved (local BA, loop correction, map merge) or been culled
     Evidence now = pointEvidence(*kf, o, kf_points);
     const bool place_taken = !placeEvidence(*kf, o, extents, now);
@@ -651,7 +667,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     // fewer than 3 points are never judged (summed keyframes see the same ones).
     const int need = std::min(min_expected_points_, std::max(3, static_cast<int>(o.numPoints() / 2)));
     const bool judged = o.numPoints() >= 3 && ev.expected >= need;
-    if (judged && ev.found >= present_fraction_ * ev.expected && !undetected) {
+    if (!tentative && judged && ev.found >= present_fraction_ * ev.expected && !undetected) {
       // Its points are there although no candidate was made of them (detector miss, labels): a sighting.
       const bool was_dormant = o.dormant;
       o.dormant = false;
@@ -665,7 +681,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       continue;
     }
     // Its appearance seen elsewhere, displaced rigidly: it was moved (ours).
-    if (reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
+    if (!tentative && reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
       std::optional<ReidAppearance> appearance;  // built once, for the first seen object of its class
       std::vector<ObjectMotion> priors;           // ... and the motions of objects found moved near it, lately
@@ -729,6 +745,10 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (free || undetected_enough || (judged && ev.found < min_found_fraction_ * ev.expected)) {
       o.belief = objectBeliefMissed(o.belief, belief_, free);
       stats_.misses++;
+      if (tentative) {
+        stats_.tentative_misses++;
+        missed_lately_.insert(id);
+      }
       if (log::enabled(log::Level::Debug))  // the counts behind the decision
         traceObject(*kf, o,
                     (std::string(free ? "negative evidence (its place seen through"
@@ -736,7 +756,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
                                                           : "negative evidence (its points not found") +
                      "; points found " + std::to_string(ev.found) + " of " + std::to_string(ev.expected) +
                      ", place keypoints " + std::to_string(ev.with_depth) + " with depth, " +
-                     std::to_string(ev.through) + " through, " + std::to_string(ev.keyframes) + " keyframes)")
+                     std::to_string(ev.through) + " through, " + std::to_string(ev.keyframes) + " keyframes" +
+                     (tentative ? ", tentative, short term)" : ")"))
                         .c_str());
       if (o.belief < belief_threshold_) {
         setGone(o);

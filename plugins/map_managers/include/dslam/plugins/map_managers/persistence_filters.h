@@ -56,6 +56,7 @@ struct PersistenceStats {
   int64_t reidentified_as_part = 0;   ///< ... of them, dormant parts of an object of their class found moved near them
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
   int64_t missed_points = 0;      ///< candidate points left out as a missed object's (dropMissedObjectPoints)
+  int64_t tentative_misses = 0;   ///< ... of the misses, short-term ones of tentative objects (tentative_short_term)
   std::string str() const;
 };
 
@@ -154,6 +155,8 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int small_candidate_keyframes_ = 5;
   MissedObjectParams missed_;
   int undetected_keyframes_ = 1;
+  bool tentative_short_term_ = false;
+  std::unordered_set<int64_t> missed_lately_;  ///< tentative objects with short-term negative evidence since their sighting
   SmallCandidatePool small_;  ///< candidates too small for an object, adding up
   /** A motion found by re-identification: a prior for objects near `from`. */
   struct PriorMotion {
