@@ -770,6 +770,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   }
   // Objects merged into others, or of another map (kept dormant until seen again).
   for (auto it = pending_.begin(); it != pending_.end();) it = objects.count(it->first) ? std::next(it) : pending_.erase(it);
+  for (auto it = missed_lately_.begin(); it != missed_lately_.end();)
+    it = objects.count(*it) ? std::next(it) : missed_lately_.erase(it);
   const int64_t kf_id = kf->id;
   motions_.erase(std::remove_if(motions_.begin(), motions_.end(),
                                 [&](const PriorMotion& q) { return kf_id - q.kf > prior_keyframes_; }),
