@@ -117,6 +117,27 @@ TEST(ObjectBelief, SightingsRaiseMissesLowerFarSightingsBarelyCount) {
   EXPECT_GT(objectBeliefSighted(c, 0.0, 50, p), 0.05);
 }
 
+TEST(ObjectBelief, TheUpperClampSetsHowManyMissesAnObjectSeenOftenNeeds) {
+  // Sightings at the centroid (odds x8 each) take the belief to the clamp.
+  const auto missesBelow = [](ObjectBeliefParams p, double threshold) {
+    double b = 0.5;
+    for (int k = 0; k < 30; k++) b = objectBeliefSighted(b, 0.0, 200, p);
+    EXPECT_DOUBLE_EQ(b, p.belief_max);
+    int n = 0;
+    while (b >= threshold && n < 100) {
+      b = objectBeliefMissed(b, p);
+      n++;
+    }
+    return n;
+  };
+  ObjectBeliefParams p;  // belief_max 0.99: odds 99 x (0.2 / 0.9)^n below 0.25 needs n = 4
+  EXPECT_EQ(missesBelow(p, 0.2), 4);
+  p.belief_max = 0.95;  // odds 19: n = 3
+  EXPECT_EQ(missesBelow(p, 0.2), 3);
+  p.belief_max = 0.999;  // odds 999: n = 6
+  EXPECT_EQ(missesBelow(p, 0.2), 6);
+}
+
 TEST(ObjectBelief, PlaceSeenThroughWeighsMoreThanPointsNotFound) {
   ObjectBeliefParams p;  // p_detect 0.8, p_false 0.1, p_see_through 0.1
   // Seen through: the odds fall by p_see_through / (1 - p_false), not (1 - p_detect) / (1 - p_false).

@@ -9,6 +9,7 @@
 #include <memory>
 #include <utility>
 
+#include "dslam/core/error.h"
 #include "dslam/core/params.h"
 #include "dslam/map/atlas.h"
 #include "dslam/plugins/map_managers/persistence_filters.h"
@@ -194,6 +195,19 @@ TEST(ObjectPersistenceFilter, NegativeEvidenceDeactivatesAndSightingsReactivate)
   EXPECT_LE(sightings, 3);
   for (const auto& [id, p] : o.points) EXPECT_TRUE(p->active);
   EXPECT_EQ(filter->stats().reactivated, 1);
+}
+
+TEST(ObjectPersistenceFilter, BeliefClampBelowInitialBeliefOrThresholdIsAConfigError) {
+  auto atlas = std::make_shared<Atlas>();
+  for (const char* yaml : {"{belief_max: 0.6, initial_belief: 0.7}", "{belief_max: 0.6, belief_threshold: 0.6}"}) {
+    try {
+      makeFilter<ObjectPersistenceFilter>(yaml, atlas);
+      ADD_FAILURE() << yaml << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("'belief_max' (0.6"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(makeFilter<ObjectPersistenceFilter>("{belief_max: 0.95}", atlas));
 }
 
 TEST(ObjectPersistenceFilter, OccludedPlaceIsNoEvidence) {

@@ -10,6 +10,7 @@
 
 #include "dslam/core/coco.h"
 #include "dslam/core/descriptor.h"
+#include "dslam/core/error.h"
 #include "dslam/core/log.h"
 #include "dslam/map/keyframe.h"
 #include "dslam/map/map.h"
@@ -172,6 +173,11 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                0, 1e9),
       P_double("initial_belief", 0.5, "belief of a new object (Changing-SLAM: 0.5)", 0.01, 0.99),
       P_double("belief_threshold", 0.2, "objects below this belief have inactive points", 0, 1),
+      P_double("belief_max", 0.99,
+               "sightings raise the belief up to this clamp (like OctoMap's clamping thresholds), so that an object "
+               "seen often still falls below belief_threshold after a few keyframes of negative evidence: 0.99, 4 "
+               "keyframes whose points are not found; 0.95, 3 (ours)",
+               0.5, 0.999999),
       P_double("sigma", 0.5, "spread of the sighting likelihood for a one-point object (m)", 1e-3, 100),
       P_double("min_sigma", 0.15,
                "the spread shrinks as 1/sqrt(points) down to this (m; partial views move a centroid by up to half "
@@ -324,6 +330,13 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   long_term_s_ = p.getDouble("long_term_s");
   initial_belief_ = p.getDouble("initial_belief");
   belief_threshold_ = p.getDouble("belief_threshold");
+  belief_.belief_max = p.getDouble("belief_max");
+  if (initial_belief_ > belief_.belief_max || belief_threshold_ >= belief_.belief_max) {
+    const std::string at = p.location().str();
+    throw ConfigError((at.empty() ? "" : at + ": ") + "parameter 'belief_max' (" + std::to_string(belief_.belief_max) +
+                      ") must be at least initial_belief (" + std::to_string(initial_belief_) +
+                      ") and above belief_threshold (" + std::to_string(belief_threshold_) + ")");
+  }
   belief_.sigma_m = p.getDouble("sigma");
   belief_.min_sigma_m = p.getDouble("min_sigma");
   belief_.p_detect = p.getDouble("p_detect");
