@@ -148,6 +148,37 @@ TEST(MapObject, SharedPointsDecideTheObjectWhateverThePartialViewsCentroid) {
   EXPECT_TRUE(r[0].created);
 }
 
+TEST(MapObject, ADormantObjectIsAssociatedByDistanceOnlyWithTheOption) {
+  for (bool by_distance : {true, false}) {
+    std::map<int64_t, MapObjectPtr> objects;
+    LtdaParams p;  // threshold 0.25 m, 3 shared points
+    p.dormant_by_distance = by_distance;
+    int64_t next = 1;
+    auto old = blob({1, 0, 0}, 20, 0, 0.2, 28);  // a suitcase
+    associateObjects(objects, {candidate(28, old)}, 1, 1.0, p, next);
+    ASSERT_EQ(objects.size(), 1u);
+    objects.at(1)->dormant = true;  // tracking was lost
+    // New points labelled suitcase 0.15 m from its centroid (another thing
+    // under a suitcase's box): woken only when distance alone may do it.
+    auto near = blob({1.15, 0, 0}, 10, 100, 0.2, 28);
+    auto r = associateObjects(objects, {candidate(28, near)}, 2, 2.0, p, next);
+    ASSERT_EQ(r.size(), 1u);
+    EXPECT_EQ(r[0].created, !by_distance);
+    EXPECT_EQ(objects.size(), by_distance ? 1u : 2u);
+    // A candidate with 3 of its points is it either way.
+    std::vector<MapPointPtr> view = blob({1.1, 0, 0}, 8, 200, 0.2, 28);
+    view.insert(view.end(), old.begin(), old.begin() + 3);
+    r = associateObjects(objects, {candidate(28, view)}, 3, 3.0, p, next);
+    EXPECT_FALSE(r[0].created);
+    EXPECT_EQ(r[0].object, 1);
+    // Not dormant: distance alone associates with or without the option.
+    objects.at(1)->dormant = false;
+    r = associateObjects(objects, {candidate(28, blob({1.05, 0, 0}, 10, 300, 0.2, 28))}, 4, 4.0, p, next);
+    EXPECT_FALSE(r[0].created);
+    EXPECT_EQ(r[0].object, 1);
+  }
+}
+
 TEST(MapObject, OverlappingPartsOfOneObjectMerge) {
   std::map<int64_t, MapObjectPtr> objects;
   LtdaParams p;

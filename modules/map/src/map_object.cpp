@@ -255,6 +255,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
           auto it = grid.find({candidates[c].class_id, i, j, k});
           if (it == grid.end()) continue;
           for (const MapObject* o : it->second) {
+            if (o->dormant && !p.dormant_by_distance) continue;
             const double d = (o->centroid - x).norm();
             if (d < p.threshold_m) pairs.emplace_back(1, d, c, o->id);
           }

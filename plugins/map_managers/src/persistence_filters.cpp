@@ -164,6 +164,11 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "a candidate sharing this many map points with an object of its class is that object (before the "
             "centroid test; ours)",
             1, 100000),
+      P_bool("dormant_by_distance", true,
+             "a dormant object (not confirmed for long, or tracking was lost) may be associated with a candidate of "
+             "its class by centroid distance alone (ltda_threshold), which wakes it; false: only a candidate "
+             "sharing min_shared_points of its points, or its points found again (point evidence), wake it, so "
+             "that another thing labelled with its class next to its place does not (ours)"),
       P_list("classes", ParamType::IntList, "[]", "COCO ids that make objects ([] = every COCO thing, ids 1-91)"),
       P_list("ignore_classes", ParamType::IntList, "[1]", "COCO ids that never make objects (people are dynamic)"),
       P_int("long_term_keyframes", 5,
@@ -324,6 +329,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   ltda_.cluster_m = p.getDouble("cluster_radius");
   ltda_.min_points = static_cast<int>(p.getInt("min_points"));
   ltda_.min_shared_points = static_cast<size_t>(p.getInt("min_shared_points"));
+  ltda_.dormant_by_distance = p.getBool("dormant_by_distance");
   ltda_.classes = p.getIntList("classes");
   ltda_.ignore_classes = p.getIntList("ignore_classes");
   long_term_keyframes_ = static_cast<int>(p.getInt("long_term_keyframes"));

@@ -99,6 +99,8 @@ struct LtdaParams {
   double cluster_m = 0.3;         ///< points without an instance id: one candidate per cluster of this radius
   int min_points = 5;             ///< smaller candidates are ignored
   size_t min_shared_points = 3;   ///< a candidate with this many of an object's points is that object
+  bool dormant_by_distance = true;  ///< a dormant object may be associated by centroid distance alone (false:
+                                    ///< only by shared points; its points found again still wake it)
   std::vector<int> classes;       ///< classes that make objects ([] = every COCO thing, ids 1-91, except ignore_classes)
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
 };
