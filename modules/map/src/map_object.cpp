@@ -229,7 +229,8 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
   auto cellOf = [cell](double v) { return static_cast<int64_t>(std::floor(v / cell)); };
   std::map<std::tuple<int, int64_t, int64_t, int64_t>, std::vector<const MapObject*>> grid;
   for (const auto& [id, o] : objects)
-    grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(o.get());
+    if (p.dormant_by_distance || !o->dormant)  // else a dormant object is found by shared points only
+      grid[{o->class_id, cellOf(o->centroid.x()), cellOf(o->centroid.y()), cellOf(o->centroid.z())}].push_back(o.get());
   // (rank, distance, candidate, object): rank 0 = the candidate shares map
   // points with the object (its points were tracked and already belong to
   // it: the same object whatever part of it this view shows), ranked by
@@ -255,7 +256,6 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
           auto it = grid.find({candidates[c].class_id, i, j, k});
           if (it == grid.end()) continue;
           for (const MapObject* o : it->second) {
-            if (o->dormant && !p.dormant_by_distance) continue;
             const double d = (o->centroid - x).norm();
             if (d < p.threshold_m) pairs.emplace_back(1, d, c, o->id);
           }
