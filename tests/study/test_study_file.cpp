@@ -114,6 +114,38 @@ TEST_F(StudyFile, RepeatsSeedsAndMode) {
   EXPECT_NE(cells[0].id, cells[1].id);
 }
 
+// A variant's seeds: one more variant per seed, named <variant>_seed<k>,
+// the same overlay and pipeline.seed k; as if written out by hand.
+TEST_F(StudyFile, VariantSeedsMakeOneVariantPerSeed) {
+  const std::string f = write(studyText(
+      "  more: {base: crowd, overlay: [{set: {features.n_features: 1500}}], seeds: [3, 1], datasets: [wx]}\n"
+      "  last: {base: crowd}\n"));
+  const study::Study st = study::loadStudy(f);
+  std::vector<std::string> names;
+  for (const auto& v : st.variants) names.push_back(v.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"crowd", "baseline", "more", "more_seed3", "more_seed1", "last"}));
+  const auto cells = st.plan();
+  std::vector<std::string> ids;
+  for (const auto& c : cells) ids.push_back(c.id);
+  EXPECT_EQ(ids, (std::vector<std::string>{"crowd.wx.r0", "baseline.wx.r0", "more.wx.r0", "more_seed3.wx.r0",
+                                           "more_seed1.wx.r0", "last.wx.r0"}));
+  const auto plain = config::loadPipelineText(cells[2].config_yaml, dir_);
+  const auto s3 = config::loadPipelineText(cells[3].config_yaml, dir_);
+  EXPECT_EQ(s3.seed, 3u);
+  EXPECT_NE(plain.seed, 3u);
+  EXPECT_EQ(s3.sections.at("features").getInt("n_features"), 1500);  // the variant's overlay too
+  EXPECT_EQ(s3.name, "more_seed3");
+  EXPECT_EQ(st.variants[3].base, "crowd");
+  EXPECT_EQ(st.variants[3].reference, "crowd");
+  // The same as the variant written out by hand.
+  const std::string g = write(studyText(
+      "  more_seed3: {base: crowd, overlay: [{set: {features.n_features: 1500, pipeline.seed: 3}}], datasets: [wx]}\n"));
+  const auto by_hand = study::loadStudy(g).plan();
+  ASSERT_EQ(by_hand.size(), 3u);
+  EXPECT_EQ(by_hand[2].id, "more_seed3.wx.r0");
+  EXPECT_EQ(by_hand[2].config_yaml, cells[3].config_yaml);
+}
+
 TEST_F(StudyFile, SceneCacheKeyFollowsResolvedTextAndOverrides) {
   const std::string scen = test::source("config/scenarios/walking_xyz.yaml");
   auto key = [&](const std::string& extra) {
@@ -228,6 +260,12 @@ TEST_F(StudyFile, ErrorsNameFileLineAndKey) {
        {"study.yaml:9:", "'datasets.sc.resolution'", "expected WxH"}},
       {studyText("  v: {base: crowd, datasets: [wx, kitti]}\n"), {"study.yaml:6:", "unknown dataset 'kitti'"}},
       {studyText("  crowd: {base: crowd}\n"), {"study.yaml:6:", "has the name of a base"}},
+      {studyText("  v: {base: crowd, seeds: [1, -2]}\n"), {"study.yaml:6:", "'variants.v.seeds[1]'", "integers >= 0"}},
+      {studyText("  v: {base: crowd, seeds: [1, 1]}\n"), {"study.yaml:6:", "seed 1 is listed twice"}},
+      {studyText("  v: {base: crowd, seeds: [1]}\n  v_seed1: {base: crowd}\n"),
+       {"study.yaml:7:", "variant 'v_seed1' is also made by the seeds of variant 'v'"}},
+      {studyText("  v_seed1: {base: crowd}\n  v: {base: crowd, seeds: [1]}\n"),
+       {"study.yaml:7:", "'variants.v.seeds'", "variant 'v_seed1' (seed 1) already exists"}},
       {studyText("  bad.name: {base: crowd}\n"), {"study.yaml:6:", "'variants.bad.name'", "letters, digits"}},
       {test::cat("bases: {b: ", dir_, "/missing.yaml}\ndatasets: {d: ", dir_, "/data/tumlike}\n"),
        {"study.yaml:1:", "'bases.b'", "pipeline file not found"}},

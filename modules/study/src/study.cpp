@@ -105,15 +105,7 @@ struct Parser {
     st.description = R.str(root, "description", "");
     st.repeats = static_cast<int>(R.integer(root, "repeats", 1));
     if (st.repeats < 1 || st.repeats > 1000) R.fail(*R.child(root, "repeats"), "must be between 1 and 1000");
-    if (auto s = R.child(root, "seeds")) {
-      for (const auto& e : R.list(*s)) {
-        const long long v = R.integer(e);
-        if (v < 0) R.fail(e, "seeds are integers >= 0");
-        if (std::find(st.seeds.begin(), st.seeds.end(), static_cast<uint64_t>(v)) != st.seeds.end())
-          R.fail(e, "seed " + std::to_string(v) + " is listed twice");
-        st.seeds.push_back(static_cast<uint64_t>(v));
-      }
-    }
+    if (auto s = R.child(root, "seeds")) st.seeds = seedList(*s);
     st.mode = R.oneOf(root, "mode", "", {"", "sequential", "parallel"}, "pipeline mode of every cell");
     if (auto e = R.child(root, "evaluation")) {
       R.checkKeys(*e, {"align", "max_dt", "rpe_delta", "rpe_unit"});
@@ -123,6 +115,19 @@ struct Parser {
       st.evaluation.rpe_unit =
           eval::deltaUnitFromString(R.oneOf(*e, "rpe_unit", "s", {"frames", "s", "m"}, "RPE delta unit"));
     }
+  }
+
+  /** A `seeds:` list: integers >= 0, none twice. */
+  std::vector<uint64_t> seedList(const At& at) {
+    std::vector<uint64_t> out;
+    for (const auto& e : R.list(at)) {
+      const long long v = R.integer(e);
+      if (v < 0) R.fail(e, "seeds are integers >= 0");
+      if (std::find(out.begin(), out.end(), static_cast<uint64_t>(v)) != out.end())
+        R.fail(e, "seed " + std::to_string(v) + " is listed twice");
+      out.push_back(static_cast<uint64_t>(v));
+    }
+    return out;
   }
 
   std::string existingFile(const At& at, const std::string& rel, const char* what) {
@@ -161,8 +166,10 @@ struct Parser {
     if (!vs) return;
     for (const auto& [name, at] : R.entries(*vs, "variant")) {
       for (const auto& b : st.variants)
-        if (b.name == name) R.fail(at, "variant '" + name + "' has the name of a base (names must be unique)");
-      R.checkKeys(at, {"base", "overlay", "datasets", "compare_to", "description"});
+        if (b.is_base && b.name == name) R.fail(at, "variant '" + name + "' has the name of a base (names must be unique)");
+      R.checkKeys(at, {"base", "overlay", "datasets", "compare_to", "description", "seeds"});
+      for (const auto& b : st.variants)
+        if (b.name == name) R.fail(at, "variant '" + name + "' is also made by the seeds of variant '" + b.base_of_seed + "'");
       Variant v;
       v.name = name;
       v.is_base = false;
@@ -184,8 +191,31 @@ struct Parser {
       v.datasets = base->datasets;
       if (auto d = R.child(at, "datasets")) v.datasets = R.names(*d);
       if (auto ov = R.child(at, "overlay")) v.overlay = overlay(*ov);
-      v.config_yaml = applyOverlay(base->config_yaml, base_dirs[v.base], v.overlay);
+      const std::string base_yaml = base->config_yaml;  // (st.variants grows below)
+      v.config_yaml = applyOverlay(base_yaml, base_dirs[v.base], v.overlay);
+      // seeds: [k, ...]: one more variant <name>_seed<k> per seed, the same
+      // overlay and then pipeline.seed k.
+      std::vector<uint64_t> seeds;
+      const auto seeds_at = R.child(at, "seeds");
+      if (seeds_at) seeds = seedList(*seeds_at);
+      const Variant plain = v;
       st.variants.push_back(std::move(v));
+      for (uint64_t seed : seeds) {
+        Variant w = plain;
+        w.name = plain.name + "_seed" + std::to_string(seed);
+        w.base_of_seed = plain.name;
+        for (const auto& b : st.variants)
+          if (b.name == w.name) R.fail(*seeds_at, "variant '" + w.name + "' (seed " + std::to_string(seed) + ") already exists");
+        OverlayOp op;
+        op.kind = OverlayOp::Kind::Set;
+        op.file = ly.fileFor(seeds_at->path);
+        op.line = seeds_at->n->marks.line + 1;
+        op.key_path = seeds_at->path;
+        op.node = std::make_shared<yaml>(yaml::FromText("pipeline.seed: " + std::to_string(seed)));
+        w.overlay.push_back(std::move(op));
+        w.config_yaml = applyOverlay(base_yaml, base_dirs[w.base], w.overlay);
+        st.variants.push_back(std::move(w));
+      }
     }
   }
 

@@ -70,6 +70,7 @@ struct Variant {
   std::vector<std::string> datasets;  ///< datasets it runs on (all if the file lists none)
   std::string config_yaml;  ///< resolved pipeline after the overlay (before seed/mode)
   std::string where;        ///< file:line of its entry
+  std::string base_of_seed;  ///< made by the `seeds:` of this variant (its name + "_seed<k>"), else ""
 };
 
 /** A dataset: an existing folder/rawlog (`path:`) or a scenario rendered on
