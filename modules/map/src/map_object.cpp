@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dslam/core/descriptor.h"
+#include "dslam/map/class_votes.h"
 #include "dslam/map/keyframe.h"
 
 namespace dslam {
@@ -94,8 +95,10 @@ bool isObjectClass(int c, const LtdaParams& p) {
   return std::find(p.classes.begin(), p.classes.end(), c) != p.classes.end();
 }
 
-std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p,
-                                             std::vector<ObjectCandidate>* small) {
+namespace {
+
+std::vector<ObjectCandidate> candidatesOf(const KeyFrame& kf, const LtdaParams& p, std::vector<ObjectCandidate>* small,
+                                          const PointClassVotes* votes, bool follow_votes) {
   // (class, instance) -> keypoint indices, in keypoint order.
   std::map<std::pair<int, int>, std::vector<size_t>> groups;
   std::vector<char> labelled_now(kf.points.size(), 0);  // its class from this keyframe's labels
@@ -111,6 +114,15 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     if (c < 0) {  // the class the point was created with
       c = mp->class_id;
       inst = mp->object_id;
+    }
+    if (votes) {  // most keyframes gave it another class: left out, or that class (no instance of this keyframe)
+      const int v = votes->classOf(*mp, c);
+      if (v != c) {
+        if (!follow_votes) continue;
+        c = v;
+        inst = -1;
+        labelled_now[i] = 0;
+      }
     }
     if (!isObjectClass(c, p) || mp->label == KpLabel::Dynamic) continue;
     groups[{c, inst}].push_back(i);
@@ -157,6 +169,19 @@ std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaPara
     }
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p,
+                                             std::vector<ObjectCandidate>* small) {
+  return candidatesOf(kf, p, small, nullptr, false);
+}
+
+std::vector<ObjectCandidate> objectCandidates(const KeyFrame& kf, const LtdaParams& p, std::vector<ObjectCandidate>* small,
+                                             PointClassVotes& votes, bool follow_votes) {
+  votes.add(kf, p);
+  return candidatesOf(kf, p, small, &votes, follow_votes);
 }
 
 namespace {

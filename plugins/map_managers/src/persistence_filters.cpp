@@ -169,6 +169,12 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
              "its class by centroid distance alone (ltda_threshold), which wakes it; false: only a candidate "
              "sharing min_shared_points of its points, or its points found again (point evidence), wake it, so "
              "that another thing labelled with its class next to its place does not (ours)"),
+      P_enum("label_votes", "off", {"off", "leave", "follow"},
+             "label fusion: each map point counts the classes keyframes label its keypoint with (object classes, "
+             "not dynamic); when most keyframes gave it another class than this keyframe's label (a detector that "
+             "missed its object, the box behind labelling it), leave = the point is left out of this keyframe's "
+             "candidates (it stays in its object), follow = it joins the candidates of the class the votes give it "
+             "(ours; off = this keyframe's label, or the class the point was created with; docs/changing.md)"),
       P_list("classes", ParamType::IntList, "[]", "COCO ids that make objects ([] = every COCO thing, ids 1-91)"),
       P_list("ignore_classes", ParamType::IntList, "[1]", "COCO ids that never make objects (people are dynamic)"),
       P_int("long_term_keyframes", 5,
@@ -330,6 +336,9 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   ltda_.min_points = static_cast<int>(p.getInt("min_points"));
   ltda_.min_shared_points = static_cast<size_t>(p.getInt("min_shared_points"));
   ltda_.dormant_by_distance = p.getBool("dormant_by_distance");
+  const std::string votes = p.getString("label_votes");
+  label_votes_ = votes != "off";
+  follow_votes_ = votes == "follow";
   ltda_.classes = p.getIntList("classes");
   ltda_.ignore_classes = p.getIntList("ignore_classes");
   long_term_keyframes_ = static_cast<int>(p.getInt("long_term_keyframes"));
@@ -578,7 +587,9 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   stats_.keyframes++;
   auto& objects = m->objects();
   std::vector<ObjectCandidate> small;
-  auto candidates = objectCandidates(*kf, ltda_, small_candidate_keyframes_ > 0 ? &small : nullptr);
+  std::vector<ObjectCandidate>* const small_out = small_candidate_keyframes_ > 0 ? &small : nullptr;
+  auto candidates =
+      label_votes_ ? objectCandidates(*kf, ltda_, small_out, votes_, follow_votes_) : objectCandidates(*kf, ltda_, small_out);
   if (small_candidate_keyframes_ > 0)
     for (auto& c : small_.add(std::move(small), m->id, kf->id, small_candidate_keyframes_, ltda_)) {
       stats_.accumulated++;

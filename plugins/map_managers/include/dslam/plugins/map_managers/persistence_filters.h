@@ -33,6 +33,7 @@
 #include <unordered_set>
 
 #include "dslam/map/filtering_map_manager.h"
+#include "dslam/map/class_votes.h"
 #include "dslam/map/map_object.h"
 #include "dslam/map/persistence.h"
 
@@ -158,6 +159,8 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   bool tentative_short_term_ = false;
   std::unordered_set<int64_t> missed_lately_;  ///< tentative objects with short-term negative evidence since their sighting
   SmallCandidatePool small_;  ///< candidates too small for an object, adding up
+  bool label_votes_ = false, follow_votes_ = false;  ///< label_votes: off, leave, follow
+  PointClassVotes votes_;  ///< label fusion (label_votes)
   /** A motion found by re-identification: a prior for objects near `from`. */
   struct PriorMotion {
     int64_t map = -1, kf = -1;
