@@ -32,8 +32,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "dslam/map/filtering_map_manager.h"
 #include "dslam/map/class_votes.h"
+#include "dslam/map/filtering_map_manager.h"
 #include "dslam/map/map_object.h"
 #include "dslam/map/persistence.h"
 
