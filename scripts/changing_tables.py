@@ -3,6 +3,7 @@
 
   changing_tables.py STUDY_OUT [--dslam build/bin/dslam] [--variants changing_slam,...]
                     [--min-points N] [--min-sightings S [--confirm-points P]] [--objects-only]
+                    [--scenes REGEX]
 
 --min-points N scores only the estimated objects of at least N map points
 (`dslam eval objects --min-points`; from runs with
@@ -10,7 +11,11 @@ outputs.objects_min_points: 1, config/studies/changing_min_points.yaml);
 --min-sightings S (with --confirm-points P) scores only the objects seen by
 at least S keyframes or of at least P points (`dslam eval objects
 --min-sightings`, the trade-off of outputs.objects_min_sightings);
---objects-only prints the semantic map's table and totals only.
+--objects-only prints the semantic map's table and totals only;
+--scenes REGEX keeps only the datasets whose whole name matches (every
+table and summary line: e.g. 'shift_dark.*' for the 49 shift_dark runs of
+an option study, '.*_s[0-9]+' for the held-out renders,
+'one_chair|vanishing|replacing|shift|shift_dark' for the study's scenes).
 
 Datasets named after a changing scene with a seed suffix (`shift_dark_s8`,
 config/studies/changing_heldout.yaml) are that scene rendered with
@@ -95,9 +100,12 @@ def main():
     ap.add_argument("--min-sightings", type=int, default=0)
     ap.add_argument("--confirm-points", type=int, default=0)
     ap.add_argument("--objects-only", action="store_true")
+    ap.add_argument("--scenes", default=None, help="regex: only the datasets whose whole name matches")
     a = ap.parse_args()
     variants = a.variants.split(",")
     scenes = study_scenes(a.out)
+    keep = (lambda d: re.fullmatch(a.scenes, d) is not None) if a.scenes else (lambda d: True)
+    scenes = [sc for sc in scenes if keep(sc)]
 
     print("Semantic object map at the end (`dslam eval objects RUN SCENE`):\n")
     print("| variant | scene | static objects found | stale (at places seen since) | moved found (max centroid-to-box "
@@ -159,7 +167,8 @@ def main():
     res = os.path.join(a.out, "results.csv")
     if os.path.exists(res):
         for r in csv.DictReader(open(res)):
-            if r.get("variant") in variants and base_scene(r.get("dataset", "")) in SCENES and r.get("ate_rmse_m"):
+            if (r.get("variant") in variants and base_scene(r.get("dataset", "")) in SCENES and r.get("ate_rmse_m")
+                    and keep(r.get("dataset", ""))):
                 ate.setdefault(base_scene(r["dataset"]), []).append(float(r["ate_rmse_m"]))
     if ate:
         print("\nATE RMSE of these variants' runs (results.csv):\n")
@@ -178,6 +187,8 @@ def main():
     for cell in sorted(glob.glob(os.path.join(a.out, "cells", "*.r0"))):
         name = os.path.basename(cell)[:-3]
         sc = name.split(".")[1]
+        if not keep(sc):
+            continue
         scene, run = scene_dir(a.out, sc), os.path.join(cell, "run")
         if not scene or not os.path.exists(run + "/events.jsonl"):
             continue
