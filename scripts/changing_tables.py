@@ -220,6 +220,8 @@ def main():
     for sc in [n for n in scenes if base_scene(n) in DARK]:
         for cell in sorted(glob.glob(os.path.join(a.out, "cells", f"*.{sc}.r0"))):
             scene = scene_dir(a.out, sc)
+            if not scene:
+                continue
             _, _, after, _ = after_return(scene + "/groundtruth.txt", os.path.join(cell, "run", "trajectory.txt"),
                                           *DARK[base_scene(sc)], 30)
             if after:
@@ -236,7 +238,7 @@ def main():
     print("| variant | scene | median | max | per frame |")
     print("|---|---|---|---|---|")
     for v in variants:
-        for sc in scenes + ["walking_xyz"]:
+        for sc in scenes + [d for d in ["walking_xyz"] if keep(d)]:
             f = os.path.join(a.out, "cells", f"{v}.{sc}.r0", "run", "timing.csv")
             if not os.path.exists(f):
                 continue

@@ -31,8 +31,11 @@ int PointClassVotes::votes(const MapPoint& mp, int c) const {
 int PointClassVotes::classOf(const MapPoint& mp, int now) const {
   auto it = votes_.find(mp.id);
   if (it == votes_.end()) return now;
-  int best = now, best_n = votes(mp, now);
-  for (const auto& [c, n] : it->second.counts)  // first class with the most votes (counts keep first-vote order)
+  const auto& counts = it->second.counts;
+  int best = now, best_n = 0;
+  for (const auto& [c, n] : counts)
+    if (c == now) best_n = n;
+  for (const auto& [c, n] : counts)  // first class with the most votes (counts keep first-vote order)
     if (n > best_n) best = c, best_n = n;
   return best;
 }

@@ -166,10 +166,10 @@ struct Parser {
     if (!vs) return;
     for (const auto& [name, at] : R.entries(*vs, "variant")) {
       for (const auto& b : st.variants)
-        if (b.is_base && b.name == name) R.fail(at, "variant '" + name + "' has the name of a base (names must be unique)");
+        if (b.name == name)
+          R.fail(at, b.is_base ? "variant '" + name + "' has the name of a base (names must be unique)"
+                               : "variant '" + name + "' is also made by the seeds of variant '" + b.base_of_seed + "'");
       R.checkKeys(at, {"base", "overlay", "datasets", "compare_to", "description", "seeds"});
-      for (const auto& b : st.variants)
-        if (b.name == name) R.fail(at, "variant '" + name + "' is also made by the seeds of variant '" + b.base_of_seed + "'");
       Variant v;
       v.name = name;
       v.is_base = false;
