@@ -389,6 +389,28 @@ TEST(DepthRepopulation, KeypointInFrontOfABoxsObjectTakesTheOtherBoxsClass) {
   EXPECT_EQ(classes("front_margin: 1.5"), (std::vector<int>{67, 67, 67}));  // 1 m in front is within the margin
 }
 
+// shift_dark frame 557: a monitor box whose left edge (x 583.2) lies just
+// right of column 583, where the fridge beside it is 1 m nearer. Pixel 583
+// is not in the box (a keypoint there would not be); taken in, the fridge's
+// edge was the monitor's object depth and the fridge's keypoints in the
+// monitor box were labelled tv. Likewise the top row (y 194.8).
+TEST(DepthRepopulation, PixelsJustOutsideAFractionalBoxAreNotSampled) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(4.3f));
+  depth(cv::Rect(0, 0, 584, 480)).setTo(3.0f);     // fridge, columns 0-583
+  depth(cv::Rect(584, 195, 40, 60)).setTo(3.9f);   // monitor
+  depth(cv::Rect(584, 194, 40, 1)).setTo(2.9f);    // something nearer on row 194
+  Detections d;
+  d.boxes = {box(583.2f, 194.8f, 46.3f, 62.0f, 72)};
+  Frame f = depthFrame(depth, {{600, 220}});  // on the monitor
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", "occlusion_check: none");
+  rep->classify(f, d, {});
+  ASSERT_EQ(rep->lastStats().size(), 1u);
+  EXPECT_FLOAT_EQ(rep->lastStats()[0].min, 3.9f);  // column 583 and row 194 not sampled
+  EXPECT_FLOAT_EQ(rep->lastStats()[0].object_depth, 3.9f);
+  EXPECT_EQ(f.meta[0].label, KpLabel::Movable);
+  EXPECT_EQ(f.meta[0].class_id, 72);
+}
+
 TEST(DepthRepopulation, KeypointDepthsWithoutDepthImage) {
   Detections d;
   d.boxes = {box(200, 100, 200, 300, 1)};

@@ -168,8 +168,13 @@ bool inAny(const std::vector<cv::Rect2f>& rects, float x, float y) {
   return false;
 }
 
+/** The pixels (x, y) with r.x <= x < r.x + width, likewise y: those a
+ *  keypoint at the pixel would be inside `r` for (cls::inBox). Rounding the
+ *  box outwards instead takes in a row and a column of whatever borders it,
+ *  e.g. the edge of an occluder next to the box, whose depth then becomes
+ *  the box's minimum (its object depth). */
 cv::Rect pixelRect(const cv::Rect2f& r, const cv::Mat& img) {
-  return cv::Rect(cv::Point(static_cast<int>(std::floor(r.x)), static_cast<int>(std::floor(r.y))),
+  return cv::Rect(cv::Point(static_cast<int>(std::ceil(r.x)), static_cast<int>(std::ceil(r.y))),
                   cv::Point(static_cast<int>(std::ceil(r.x + r.width)), static_cast<int>(std::ceil(r.y + r.height)))) &
          cv::Rect(0, 0, img.cols, img.rows);
 }
