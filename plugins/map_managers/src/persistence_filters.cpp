@@ -628,6 +628,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (mt.created) {
       o.belief = initial_belief_;
       stats_.created++;
+      if (log::enabled(log::Level::Trace)) traceObject(*kf, o, "created");
       continue;
     }
     const bool was_dormant = o.dormant;
@@ -680,6 +681,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     Evidence now = pointEvidence(*kf, o, kf_points);
     const bool place_taken = !placeEvidence(*kf, o, extents, now);
     const bool undetected = now.undetected > 0;
+    DSLAM_LOG(Trace, "objects: keyframe " << kf->id << ": object " << o.id << " evidence: points found "
+                                          << now.found << " of " << now.expected << ", place keypoints "
+                                          << now.with_depth << " with depth, " << now.through << " through, "
+                                          << now.other << " on another object" << (undetected ? ", undetected" : "")
+                                          << (place_taken ? ", its class on its place" : ""));
     Evidence ev;  // what earlier keyframes gathered without a decision, and this one
     if (auto it = pending_.find(id); it != pending_.end()) {
       ev = it->second;
