@@ -4,6 +4,7 @@
 // `--collect` aggregates what has finished.
 #include <csignal>
 #include <iostream>
+#include <set>
 #include <sstream>
 
 #include "command.h"
@@ -79,8 +80,11 @@ void run(const Opts& o) {
     return;
   }
   const study::RunOptions ro = runOptions(o, st);
-  if (o.prepare) {
+  if (o.prepare) {  // the datasets of the cells --only selects (all without it)
+    std::set<std::string> used;
+    for (const auto& c : study::selectCells(plan, ro.only)) used.insert(c.dataset);
     for (const auto& d : st.datasets) {
+      if (!used.count(d.name)) continue;
       const std::string dir = study::prepareDataset(d, study::sceneCacheDir(ro));
       std::cout << d.name << ": " << dir << std::endl;
     }
@@ -132,7 +136,8 @@ void setup(CLI::App& sub) {
   sub.add_option("--cell-index", o.cell_index, "run the cell on line N (from 0) of --plan, e.g. $SLURM_ARRAY_TASK_ID")
       ->check(app::kNonNegative);
   sub.add_flag("--collect", o.collect, "write results.csv/md/json and plots from the finished cells");
-  sub.add_flag("--prepare", o.prepare, "render the scenario datasets into the scene cache and exit");
+  sub.add_flag("--prepare", o.prepare,
+               "render the scenario datasets into the scene cache and exit (with --only: those of the selected cells)");
   sub.add_option("--scene-cache", o.scene_cache, "folder of rendered scenarios (default <out>/scenes)");
   sub.add_flag("--no-plots", o.no_plots, "do not draw the PNG plots");
   sub.add_option("--dslam", o.dslam_exe, "dslam executable that runs the cells (default: this one)")

@@ -351,3 +351,27 @@ TEST(Ablate, BadStudyFileStopsBeforeAnythingRuns) {
     EXPECT_FALSE(fs::exists(out)) << "something ran for:\n" << c.text;
   }
 }
+
+TEST(Ablate, PrepareRendersTheDatasetsOfTheSelectedCellsOnly) {
+  const std::string dir = test::tempDir("ablate_prepare");
+  const std::string scen = test::source("config/scenarios/walking_xyz.yaml");
+  test::writeFile(dir + "/study.yaml",
+                  test::cat("bases: {crowd: ", test::source("config/pipelines/synthetic/crowd_slam.yaml"), "}\n",
+                            "datasets:\n",
+                            "  a: {scenario: ", scen, ", frames: 5, resolution: 160x120, right: false}\n",
+                            "  b: {scenario: ", scen, ", frames: 6, resolution: 160x120, right: false}\n"));
+  const std::string cache = dir + "/cache";
+  auto prepare = [&](const std::string& only) {
+    return test::runDslam("ablate '" + dir + "/study.yaml' --out '" + dir + "/out' --scene-cache '" + cache +
+                          "' --prepare" + only);
+  };
+  const auto one = prepare(" --only 'crowd.b.*'");
+  ASSERT_EQ(one.exit_code, 0) << one.out;
+  EXPECT_EQ(one.out.find("a: "), std::string::npos) << one.out;
+  EXPECT_NE(one.out.find("b: " + cache), std::string::npos) << one.out;
+  EXPECT_EQ(std::distance(fs::directory_iterator(cache), fs::directory_iterator{}), 1) << one.out;
+  const auto all = prepare("");
+  ASSERT_EQ(all.exit_code, 0) << all.out;
+  EXPECT_NE(all.out.find("a: " + cache), std::string::npos) << all.out;
+  EXPECT_EQ(std::distance(fs::directory_iterator(cache), fs::directory_iterator{}), 2) << all.out;
+}
