@@ -138,6 +138,9 @@ std::string PersistenceStats::str() const {
          (reidentified > 0 ? ", " + std::to_string(reidentified) + " re-identified elsewhere" : "") +
          (reidentified_by_prior > 0 ? " (" + std::to_string(reidentified_by_prior) + " by a neighbour's motion)" : "") +
          (reidentified_as_part > 0 ? " (" + std::to_string(reidentified_as_part) + " as parts of a moved object)" : "") +
+         (reidentified_by_centroid > 0
+              ? " (" + std::to_string(reidentified_by_centroid) + " moved with a neighbour onto an object of their class)"
+              : "") +
          (accumulated > 0 ? ", " + std::to_string(accumulated) + " candidates from small views added up" : "") +
          (missed_points > 0 ? ", " + std::to_string(missed_points) + " candidate points of missed objects left out" : "");
 }
@@ -226,6 +229,14 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "stood that was found moved (in the last reid_prior_keyframes keyframes), and that this keyframe does "
                "not show at its place, was part of it (an object mapped from several sides as several objects) and "
                "moved with it: the same negative evidence (p_twin); ours, 0 = off",
+               0, 1000),
+      P_double("reid_centroid_distance", 0.25,
+               "re-identification by a neighbour's motion without matches: a dormant object that the motion of an "
+               "object found moved within reid_prior_radius of it (in the last reid_prior_keyframes keyframes) takes "
+               "to within this distance (m) of an object of its class that the keyframe sees, first seen after it "
+               "was, and that the keyframe does not show at its place, moved with it: the same negative evidence "
+               "(p_twin) (objects moved together whose new view shares too few descriptor matches with the old one; "
+               "ours, 0 = off)",
                0, 1000),
       P_double("reid_inlier_distance", 0.08, "re-identification: a match within this of the rigid motion (m)", 1e-3,
                10),
@@ -364,6 +375,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   prior_keyframes_ = static_cast<int>(p.getInt("reid_prior_keyframes"));
   prior_radius_ = p.getDouble("reid_prior_radius");
   part_radius_ = p.getDouble("reid_part_radius");
+  centroid_distance_ = p.getDouble("reid_centroid_distance");
   motions_.clear();
   dormant_after_s_ = p.getDouble("dormant_after_s");
   dormant_on_lost_ = p.getBool("dormant_on_lost");
@@ -767,6 +779,37 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
                       ("a part of object " + std::to_string(q.object) + " (found moved " +
                        std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
                        " m from it)")
+                          .c_str());
+          moved = true;
+          break;
+        }
+      // Not found elsewhere by its own matches, but the motion of an object
+      // found moved near it takes its centroid onto an object of its class
+      // seen now and first seen after it was: moved with it (objects moved
+      // together, a backpack on a moved chair, whose old place the chair now
+      // hides and whose new view shares too few matches with the old one).
+      if (!moved && o.dormant && centroid_distance_ > 0)
+        for (const PriorMotion& q : motions_) {
+          if (q.map != m->id || q.object == o.id || kf->id - q.kf > prior_keyframes_ ||
+              (q.from - o.centroid).norm() > prior_radius_)
+            continue;
+          const Eigen::Vector3d to = q.motion.R * o.centroid + q.motion.t;
+          const MapObject* at = nullptr;
+          for (const MapObject* s : seen_now)
+            if (s->class_id == o.class_id && s->first_seen_t > o.last_seen_t &&
+                (s->centroid - to).norm() <= centroid_distance_) {
+              at = s;
+              break;
+            }
+          if (!at) continue;
+          o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
+          stats_.reidentified++;
+          stats_.reidentified_by_centroid++;
+          traceObject(*kf, o,
+                      ("moved with object " + std::to_string(q.object) + " (found moved " +
+                       std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
+                       " m from it): its motion takes it " + std::to_string((at->centroid - to).norm()) +
+                       " m from object " + std::to_string(at->id))
                           .c_str());
           moved = true;
           break;

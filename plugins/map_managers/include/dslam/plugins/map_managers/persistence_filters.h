@@ -55,6 +55,7 @@ struct PersistenceStats {
   int64_t reidentified = 0;       ///< objects whose appearance was seen elsewhere (moved)
   int64_t reidentified_by_prior = 0;  ///< ... of them, confirmed with the motion of an object moved near them
   int64_t reidentified_as_part = 0;   ///< ... of them, dormant parts of an object of their class found moved near them
+  int64_t reidentified_by_centroid = 0;  ///< ... of them, dormant objects a neighbour's motion takes onto one of their class
   int64_t accumulated = 0;        ///< candidates made of small candidates of several keyframes
   int64_t missed_points = 0;      ///< candidate points left out as a missed object's (dropMissedObjectPoints)
   int64_t tentative_misses = 0;   ///< ... of the misses, short-term ones of tentative objects (tentative_short_term)
@@ -173,6 +174,7 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int prior_keyframes_ = 20;
   double prior_radius_ = 2.0;
   double part_radius_ = 1.0;  ///< reid_part_radius
+  double centroid_distance_ = 0.25;  ///< reid_centroid_distance
   PersistenceStats stats_;
 };
 
