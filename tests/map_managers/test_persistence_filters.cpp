@@ -829,7 +829,9 @@ namespace {
  *  descriptors: a new view of it that matches nothing of the old one). */
 MapObject partOfChairMovedWhileLost(const std::string& yaml, int part_class, const Eigen::Vector3d& offset,
                                     PersistenceStats& stats, int seen_class = -1,
-                                    const Eigen::Vector3d& seen_shift = Eigen::Vector3d::Zero()) {
+                                    const Eigen::Vector3d& seen_shift = Eigen::Vector3d::Zero(),
+                                    std::vector<MapObject>* more = nullptr,
+                                    const std::vector<Eigen::Vector3d>& more_offsets = {}) {
   auto atlas = std::make_shared<Atlas>();
   auto filter = makeFilter<ObjectPersistenceFilter>(yaml, atlas);
   Scene s(filter->currentMap());
@@ -837,27 +839,36 @@ MapObject partOfChairMovedWhileLost(const std::string& yaml, int part_class, con
   filter->onKeyFrame(kf0);
   EXPECT_EQ(s.map->objects().size(), 1u);
   const MapObject& chair = *s.map->objects().begin()->second;
-  auto part = std::make_shared<MapObject>();
-  part->id = Map::objectIdCounter()++;
-  part->class_id = part_class;
   std::vector<Eigen::Vector3d> seen_X;
-  for (int k = 0; k < 12; k++) {
-    const Eigen::Vector3d X = chair.centroid + offset + Eigen::Vector3d(0.05 * (k % 4), 0.05 * (k / 4), 0.02 * (k % 3));
-    seen_X.push_back(X + seen_shift);
-    auto mp = std::make_shared<MapPoint>(Map::nextPointId(), X, kf0.get(), s.map.get());
-    for (size_t b = 0; b < mp->desc.size(); b++) mp->desc[b] = static_cast<uint8_t>(0x5a ^ (b * 7 + k));
-    s.map->addPoint(mp);
-    part->addPoint(mp);
-  }
-  part->refresh();
-  part->belief = 0.9;
-  part->first_seen_kf = part->last_seen_kf = kf0->id;
-  s.map->objects()[part->id] = part;
+  // n points (descriptors matching nothing, `salt` apart) at `at` from the chair's centroid.
+  auto makePart = [&](const Eigen::Vector3d& at, int n, bool seen, int salt) {
+    auto part = std::make_shared<MapObject>();
+    part->id = Map::objectIdCounter()++;
+    part->class_id = part_class;
+    for (int k = 0; k < n; k++) {
+      const Eigen::Vector3d X = chair.centroid + at + Eigen::Vector3d(0.05 * (k % 4), 0.05 * (k / 4), 0.02 * (k % 3));
+      if (seen) seen_X.push_back(X + seen_shift);
+      auto mp = std::make_shared<MapPoint>(Map::nextPointId(), X, kf0.get(), s.map.get());
+      for (size_t b = 0; b < mp->desc.size(); b++) mp->desc[b] = static_cast<uint8_t>(0x5a ^ (b * 7 + k + salt));
+      s.map->addPoint(mp);
+      part->addPoint(mp);
+    }
+    part->refresh();
+    part->belief = 0.9;
+    part->first_seen_kf = part->last_seen_kf = kf0->id;
+    s.map->objects()[part->id] = part;
+    return part;
+  };
+  auto part = makePart(offset, 12, true, 0);
+  std::vector<std::shared_ptr<MapObject>> others;
+  for (const Eigen::Vector3d& at : more_offsets) others.push_back(makePart(at, 8, false, 20 * static_cast<int>(others.size() + 1)));
   filter->onTrackingLost(s.map);
   EXPECT_TRUE(part->dormant);
   std::unique_ptr<Scene> moved;
   filter->onKeyFrame(turnedTwinKeyFrame(filter->currentMap(), 3.0, true, moved, seen_class, seen_X));
   stats = filter->stats();
+  if (more)
+    for (const auto& o : others) more->push_back(*o);
   return *part;
 }
 
@@ -900,30 +911,41 @@ TEST(ObjectPersistenceFilter, ADormantObjectThatANeighboursMotionTakesOntoANewOb
   // new side of it): too few matches to re-identify it, and not a part of the
   // chair (another class). The chair's motion puts its centroid on the new
   // couch (within reid_centroid_distance, 0.25 m): moved with the chair, the
-  // same negative evidence as the chair (0.9 -> 0.1: gone).
+  // same negative evidence as the chair (0.9 -> 0.1: gone). A second part of
+  // the couch (8 points, 0.5 m from it, not seen after the move) then goes
+  // with it (reid_part_radius): the couch's motion is kept as the chair's is.
   PersistenceStats st;
   const Eigen::Vector3d beside(0.4, 0, 0);
-  MapObject carried = partOfChairMovedWhileLost("{}", kCouch, beside, st, kCouch);
+  const std::vector<Eigen::Vector3d> other_part{beside + Eigen::Vector3d(0, 0.5, 0)};
+  std::vector<MapObject> more;
+  MapObject carried =
+      partOfChairMovedWhileLost("{}", kCouch, beside, st, kCouch, Eigen::Vector3d::Zero(), &more, other_part);
   EXPECT_EQ(st.created, 3);  // the chair before, then the chair and the couch at their new places
-  EXPECT_EQ(st.reidentified, 2);  // the chair, then the couch
+  EXPECT_EQ(st.reidentified, 3);  // the chair, the couch, its other part
   EXPECT_EQ(st.reidentified_by_centroid, 1);
-  EXPECT_EQ(st.reidentified_as_part, 0);
+  EXPECT_EQ(st.reidentified_as_part, 1);
   EXPECT_FALSE(carried.dormant);
   EXPECT_FALSE(carried.active);
   EXPECT_LT(carried.belief, 0.2);
   for (const auto& [id, p] : carried.points) EXPECT_FALSE(p->active);
+  ASSERT_EQ(more.size(), 1u);
+  EXPECT_FALSE(more[0].dormant);
+  EXPECT_FALSE(more[0].active);
   // Not moved with it: what is seen there is of another class, or 0.4 m from
-  // where the motion takes it, or the rule is off. It stays dormant.
+  // where the motion takes it, or the rule is off. Both stay dormant.
   for (const auto& [yaml, cls, shift] :
        {std::tuple<std::string, int, Eigen::Vector3d>{"{}", kChair + 10, Eigen::Vector3d::Zero()},
         {"{}", kCouch, Eigen::Vector3d(0.4, 0, 0)},
         {"{reid_centroid_distance: 0}", kCouch, Eigen::Vector3d::Zero()}}) {
     SCOPED_TRACE(yaml + " class " + std::to_string(cls) + " shift " + std::to_string(shift.x()));
-    carried = partOfChairMovedWhileLost(yaml, kCouch, beside, st, cls, shift);
+    more.clear();
+    carried = partOfChairMovedWhileLost(yaml, kCouch, beside, st, cls, shift, &more, other_part);
     EXPECT_EQ(st.reidentified, 1);  // the chair only
     EXPECT_EQ(st.reidentified_by_centroid, 0);
     EXPECT_TRUE(carried.dormant);
     EXPECT_DOUBLE_EQ(carried.belief, 0.9);
+    ASSERT_EQ(more.size(), 1u);
+    EXPECT_TRUE(more[0].dormant);
   }
 }
 

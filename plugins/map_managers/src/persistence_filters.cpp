@@ -805,6 +805,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
           o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
           stats_.reidentified++;
           stats_.reidentified_by_centroid++;
+          // Its motion, for the parts of it (reid_part_radius) as for an object moved by a prior.
+          ObjectMotion mv = q.motion;
+          mv.from_prior = true;
+          mv.shift = (to - o.centroid).norm();
+          motions_.push_back({m->id, kf->id, o.centroid, mv, o.id, o.class_id});
           traceObject(*kf, o,
                       ("moved with object " + std::to_string(q.object) + " (found moved " +
                        std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
