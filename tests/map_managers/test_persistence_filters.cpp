@@ -824,14 +824,15 @@ namespace {
  *  centroid: 12 points whose descriptors match nothing in the world (the
  *  chair's other side, seen before the move, never after it). Returns that
  *  object after the keyframe that finds the chair moved. With `seen_class`
- *  >= 0 that keyframe also sees an object of that class where the chair's
- *  motion takes the second object, `seen_shift` beyond (12 points of other
- *  descriptors: a new view of it that matches nothing of the old one). */
+ *  >= 0 that keyframe and the next `seen_keyframes` - 1 also see an object of that class
+ *  where the chair's motion takes the second object, `seen_shift` beyond (12
+ *  points of other descriptors: a new view of it that matches nothing of the
+ *  old one). */
 MapObject partOfChairMovedWhileLost(const std::string& yaml, int part_class, const Eigen::Vector3d& offset,
                                     PersistenceStats& stats, int seen_class = -1,
                                     const Eigen::Vector3d& seen_shift = Eigen::Vector3d::Zero(),
                                     std::vector<MapObject>* more = nullptr,
-                                    const std::vector<Eigen::Vector3d>& more_offsets = {}) {
+                                    const std::vector<Eigen::Vector3d>& more_offsets = {}, int seen_keyframes = 2) {
   auto atlas = std::make_shared<Atlas>();
   auto filter = makeFilter<ObjectPersistenceFilter>(yaml, atlas);
   Scene s(filter->currentMap());
@@ -866,6 +867,8 @@ MapObject partOfChairMovedWhileLost(const std::string& yaml, int part_class, con
   EXPECT_TRUE(part->dormant);
   std::unique_ptr<Scene> moved;
   filter->onKeyFrame(turnedTwinKeyFrame(filter->currentMap(), 3.0, true, moved, seen_class, seen_X));
+  for (int k = 1; k < seen_keyframes && seen_class >= 0; k++)
+    filter->onKeyFrame(moved->keyframe(3.0 + 0.5 * k, poseAt({0.02 * k, 0, 0}, 90), true));
   stats = filter->stats();
   if (more)
     for (const auto& o : others) more->push_back(*o);
@@ -910,8 +913,9 @@ TEST(ObjectPersistenceFilter, ADormantObjectThatANeighboursMotionTakesOntoANewOb
   // chair's motion takes the old one, but no descriptor of the old couch (a
   // new side of it): too few matches to re-identify it, and not a part of the
   // chair (another class). The chair's motion puts its centroid on the new
-  // couch (within reid_centroid_distance, 0.25 m): moved with the chair, the
-  // same negative evidence as the chair (0.9 -> 0.1: gone). A second part of
+  // couch (within reid_centroid_distance, 0.25 m) in the next keyframe (the
+  // new couch seen twice): moved with the chair, the same negative evidence
+  // as the chair (0.9 -> 0.1: gone). A second part of
   // the couch (8 points, 0.5 m from it, not seen after the move) then goes
   // with it (reid_part_radius): the couch's motion is kept as the chair's is.
   PersistenceStats st;
@@ -932,14 +936,17 @@ TEST(ObjectPersistenceFilter, ADormantObjectThatANeighboursMotionTakesOntoANewOb
   EXPECT_FALSE(more[0].dormant);
   EXPECT_FALSE(more[0].active);
   // Not moved with it: what is seen there is of another class, or 0.4 m from
-  // where the motion takes it, or the rule is off. Both stay dormant.
-  for (const auto& [yaml, cls, shift] :
-       {std::tuple<std::string, int, Eigen::Vector3d>{"{}", kChair + 10, Eigen::Vector3d::Zero()},
-        {"{}", kCouch, Eigen::Vector3d(0.4, 0, 0)},
-        {"{reid_centroid_distance: 0}", kCouch, Eigen::Vector3d::Zero()}}) {
-    SCOPED_TRACE(yaml + " class " + std::to_string(cls) + " shift " + std::to_string(shift.x()));
+  // where the motion takes it, or seen by one keyframe only (a view's
+  // fragment of an object that stayed), or the rule is off. Both stay dormant.
+  for (const auto& [yaml, cls, shift, keyframes] :
+       {std::tuple<std::string, int, Eigen::Vector3d, int>{"{}", kChair + 10, Eigen::Vector3d::Zero(), 2},
+        {"{}", kCouch, Eigen::Vector3d(0.4, 0, 0), 2},
+        {"{}", kCouch, Eigen::Vector3d::Zero(), 1},
+        {"{reid_centroid_distance: 0}", kCouch, Eigen::Vector3d::Zero(), 2}}) {
+    SCOPED_TRACE(yaml + " class " + std::to_string(cls) + " shift " + std::to_string(shift.x()) + " keyframes " +
+                 std::to_string(keyframes));
     more.clear();
-    carried = partOfChairMovedWhileLost(yaml, kCouch, beside, st, cls, shift, &more, other_part);
+    carried = partOfChairMovedWhileLost(yaml, kCouch, beside, st, cls, shift, &more, other_part, keyframes);
     EXPECT_EQ(st.reidentified, 1);  // the chair only
     EXPECT_EQ(st.reidentified_by_centroid, 0);
     EXPECT_TRUE(carried.dormant);

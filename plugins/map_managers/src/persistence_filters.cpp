@@ -234,7 +234,9 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "re-identification by a neighbour's motion without matches: a dormant object that the motion of an "
                "object found moved within reid_prior_radius of it (in the last reid_prior_keyframes keyframes) takes "
                "to within this distance (m) of an object of its class that the keyframe sees, first seen after it "
-               "was, and that the keyframe does not show at its place, moved with it: the same negative evidence "
+               "was and seen by two keyframes or more (not one keyframe's fragment of an object that did not move: a "
+               "desk's other side), and that the keyframe does not show at its place, moved with it: the same "
+               "negative evidence "
                "(p_twin) (objects moved together whose new view shares too few descriptor matches with the old one; "
                "ours, 0 = off)",
                0, 1000),
@@ -785,7 +787,8 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         }
       // Not found elsewhere by its own matches, but the motion of an object
       // found moved near it takes its centroid onto an object of its class
-      // seen now and first seen after it was: moved with it (objects moved
+      // seen now, first seen after it was and seen twice (not one view's
+      // fragment of an object that stayed): moved with it (objects moved
       // together, a backpack on a moved chair, whose old place the chair now
       // hides and whose new view shares too few matches with the old one).
       if (!moved && o.dormant && centroid_distance_ > 0)
@@ -796,7 +799,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
           const Eigen::Vector3d to = q.motion.R * o.centroid + q.motion.t;
           const MapObject* at = nullptr;
           for (const MapObject* s : seen_now)
-            if (s->class_id == o.class_id && s->first_seen_t > o.last_seen_t &&
+            if (s->class_id == o.class_id && s->first_seen_t > o.last_seen_t && s->sightings >= 2 &&
                 (s->centroid - to).norm() <= centroid_distance_) {
               at = s;
               break;
