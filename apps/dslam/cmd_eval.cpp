@@ -248,6 +248,12 @@ void setup(CLI::App& sub) {
   obj->add_option("--match-radius", obj_o.eo.match_radius, "centroid-to-box distance of a match, metres")
       ->capture_default_str()
       ->check(app::kPositive);
+  obj->add_option("--on-object-margin", obj_o.eo.on_object_margin,
+                  "an estimate this near (metres) to the box of an object of its class present at the end is on it "
+                  "(matched or a duplicate), not stale, also inside a place an object of its class left (an object "
+                  "moved by less than its size); 0 = the nearer box decides")
+      ->capture_default_str()
+      ->check(app::kNonNegative);
   obj->add_option("--min-visible-pixels", obj_o.eo.min_visible_pixels,
                   "a ground-truth object counts if the camera saw this many of its pixels (summed over frames)")
       ->capture_default_str()

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dslam/core/coco.h"
+#include "dslam/core/error.h"
 #include "dslam/eval/objects.h"
 #include "dslam/trajectory/io.h"
 #include "test_support.h"
@@ -268,6 +269,43 @@ TEST(EvalObjects, DuplicateOnTheMovedObjectIsNotStale) {
       EXPECT_EQ(e.verdict, eval::Verdict::Stale);
     }
   }
+}
+
+TEST(EvalObjects, AFragmentOfTheMovedObjectsSurfaceInsideTheOldPlaceIsNotStale) {
+  // The suitcase moved by less than its size: the places overlap. A second
+  // active suitcase 3 cm outside its new box (a fragment of its surface, the
+  // centroid off by depth noise and the alignment) and inside the old box:
+  // within on_object_margin (5 cm) of the present object, a duplicate of it.
+  // With the margin 0 the nearer box decides: stale.
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  const Eigen::Vector3d c = kSuitNew * Eigen::Vector3d(-(0.125 + 0.03), 0.2, 0.35);
+  m.push_back(estObject(26, 33, c, true));
+  const std::string run = writeRun(d + "/run", m);
+  const auto r = evaluate(run, scene);
+  EXPECT_EQ(r.moved_found, 1);
+  EXPECT_EQ(r.stale, 0);
+  EXPECT_EQ(r.false_objects, 1);
+  bool seen = false;
+  for (const auto& e : r.est)
+    if (e.obj.id == 26) {
+      seen = true;
+      EXPECT_EQ(e.verdict, eval::Verdict::False);
+      EXPECT_NE(e.note.find("duplicate of suitcase"), std::string::npos) << e.note;
+      EXPECT_NEAR(e.box_dist, 0.03, 1e-6);
+    }
+  EXPECT_TRUE(seen);
+  eval::ObjectEvalOptions o;
+  o.on_object_margin = 0;
+  const auto r0 = eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"),
+                                        traj::readTum(run + "/trajectory.txt"), o);
+  EXPECT_EQ(r0.stale, 1);
+  EXPECT_EQ(r0.false_objects, 0);
+  o.on_object_margin = -1;
+  EXPECT_THROW(eval::evaluateObjects(eval::readScene(scene), eval::readEstObjects(run + "/objects.json"),
+                                     traj::readTum(run + "/trajectory.txt"), o),
+               ConfigError);
 }
 
 TEST(EvalObjects, VanishedAndReplacedObjectsStillActiveAreStale) {

@@ -463,6 +463,7 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
   r.map = est.map;
   r.traj_file = opt.traj_name;
   if (!(opt.match_radius > 0)) throw ConfigError("match radius must be positive");
+  if (!(opt.on_object_margin >= 0)) throw ConfigError("on-object margin must not be negative");
   alignRun(scene, traj, opt, r);
 
   // Ground truth.
@@ -592,7 +593,8 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
       const GtObjectResult& g = r.gt[gi];
       if (!g.at_end || g.category_id != e.obj.class_id) continue;
       const double d = g.box.distance(e.obj.centroid);
-      if (d <= opt.match_radius && d <= d_old) cands.push_back({d, (g.box.centre() - e.obj.centroid).norm(), gi, ei});
+      if (d <= opt.match_radius && (d <= d_old || d <= opt.on_object_margin))
+        cands.push_back({d, (g.box.centre() - e.obj.centroid).norm(), gi, ei});
     }
   }
   std::sort(cands.begin(), cands.end(), [](const Cand& a, const Cand& b) {
@@ -634,10 +636,11 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
         near = &g;
       }
     // Stale: nearer to a place an object of its class left than to any
-    // object of its class present there now. An estimate inside both (an
-    // object moved by less than its size: the places overlap) is on the
-    // object, a duplicate, not stale.
-    if (p.g != std::string::npos && d_old <= opt.match_radius && d_old < best) {
+    // object of its class present there now. An estimate inside both, or
+    // within on_object_margin of the present one (an object moved by less
+    // than its size: the places overlap), is on the object, a duplicate, not
+    // stale.
+    if (p.g != std::string::npos && d_old <= opt.match_radius && d_old < best && best > opt.on_object_margin) {
       GtObjectResult& g = r.gt[p.g];
       g.old_places[p.p].est.push_back(e.obj.id);
       e.gt_instance = g.instance_id;
@@ -749,7 +752,8 @@ std::string toText(const ObjectEvalResult& r) {
     o << "alignment: none (no trajectory)\n";
   }
   o << "matching:  same class, centroid within " << formatNumber("%g", opt.match_radius)
-    << " m of the box; objects seen >= " << opt.min_visible_pixels << " px\n\n";
+    << " m of the box (on a present object within " << formatNumber("%g", opt.on_object_margin)
+    << " m: not stale); objects seen >= " << opt.min_visible_pixels << " px\n\n";
   o << pad("ground truth", 24) << pad("class", 14) << pad("fate", 10) << pad("seen px", 10) << pad("estimate", 10)
     << pad("box d", 8) << pad("centre d", 10) << "result\n";
   for (const auto& g : r.gt) {
@@ -859,6 +863,7 @@ std::string toJson(const ObjectEvalResult& r) {
              {"align_ate_rmse", num(r.align_ate)},
              {"ate_rmse", num(r.ate)},
              {"match_radius", num(opt.match_radius)},
+             {"on_object_margin", num(opt.on_object_margin)},
              {"min_visible_pixels", opt.min_visible_pixels},
              {"min_points", opt.min_points},
              {"estimated_too_few_points", r.est_too_few_points},

@@ -142,6 +142,14 @@ struct ObjectEvalOptions {
    *  start of the first event (all poses if the scene has none). */
   double align_until = std::numeric_limits<double>::quiet_NaN();
   double match_radius = 0.5;       ///< metres, centroid-to-box distance
+  /** An estimate whose centroid lies within this distance (m) of the box of
+   *  an object of its class present at the end is on that object, also when
+   *  a place an object of its class left holds it (an object moved by less
+   *  than its size: the places overlap, and the centroid of a fragment of
+   *  its surface lies a few cm outside its box with depth noise and the
+   *  alignment's error): matched or a duplicate, not stale. 0 = the nearer
+   *  of the two boxes decides. */
+  double on_object_margin = 0.05;
   int64_t min_visible_pixels = 2000;  ///< a ground-truth object (place) counts if seen at least this much
   /** Estimated objects with fewer map points are left out (as if not in the
    *  file): the precision/recall trade-off of `outputs.objects_min_points`
