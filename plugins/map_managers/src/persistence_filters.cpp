@@ -236,9 +236,8 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "to within this distance (m) of an object of its class that the keyframe sees, first seen after it "
                "was and seen by two keyframes or more (not one keyframe's fragment of an object that did not move: a "
                "desk's other side), and that the keyframe does not show at its place, moved with it: the same "
-               "negative evidence "
-               "(p_twin) (objects moved together whose new view shares too few descriptor matches with the old one; "
-               "ours, 0 = off)",
+               "negative evidence (p_twin) (objects moved together whose new view shares too few descriptor matches "
+               "with the old one; ours, 0 = off)",
                0, 1000),
       P_double("reid_inlier_distance", 0.08, "re-identification: a match within this of the rigid motion (m)", 1e-3,
                10),
@@ -791,37 +790,44 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       // fragment of an object that stayed): moved with it (objects moved
       // together, a backpack on a moved chair, whose old place the chair now
       // hides and whose new view shares too few matches with the old one).
-      if (!moved && o.dormant && centroid_distance_ > 0)
+      if (!moved && o.dormant && centroid_distance_ > 0) {
+        std::optional<PriorMotion> with;  // the neighbour's motion (a copy: motions_ grows below)
+        const MapObject* at = nullptr;
         for (const PriorMotion& q : motions_) {
           if (q.map != m->id || q.object == o.id || kf->id - q.kf > prior_keyframes_ ||
               (q.from - o.centroid).norm() > prior_radius_)
             continue;
           const Eigen::Vector3d to = q.motion.R * o.centroid + q.motion.t;
-          const MapObject* at = nullptr;
           for (const MapObject* s : seen_now)
             if (s->class_id == o.class_id && s->first_seen_t > o.last_seen_t && s->sightings >= 2 &&
                 (s->centroid - to).norm() <= centroid_distance_) {
               at = s;
               break;
             }
-          if (!at) continue;
+          if (at) {
+            with = q;
+            break;
+          }
+        }
+        if (with) {
+          const Eigen::Vector3d to = with->motion.R * o.centroid + with->motion.t;
           o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
           stats_.reidentified++;
           stats_.reidentified_by_centroid++;
           // Its motion, for the parts of it (reid_part_radius) as for an object moved by a prior.
-          ObjectMotion mv = q.motion;
+          ObjectMotion mv = with->motion;
           mv.from_prior = true;
           mv.shift = (to - o.centroid).norm();
           motions_.push_back({m->id, kf->id, o.centroid, mv, o.id, o.class_id});
           traceObject(*kf, o,
-                      ("moved with object " + std::to_string(q.object) + " (found moved " +
-                       std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
+                      ("moved with object " + std::to_string(with->object) + " (found moved " +
+                       std::to_string(with->motion.shift) + " m, " + std::to_string((with->from - o.centroid).norm()) +
                        " m from it): its motion takes it " + std::to_string((at->centroid - to).norm()) +
                        " m from object " + std::to_string(at->id))
                           .c_str());
           moved = true;
-          break;
         }
+      }
       if (moved && o.belief < belief_threshold_) {
         setGone(o);
         continue;
