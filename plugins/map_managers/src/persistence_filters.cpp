@@ -349,8 +349,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   ltda_.min_shared_points = static_cast<size_t>(p.getInt("min_shared_points"));
   ltda_.dormant_by_distance = p.getBool("dormant_by_distance");
   const std::string votes = p.getString("label_votes");
-  label_votes_ = votes != "off";
-  follow_votes_ = votes == "follow";
+  label_votes_ = votes == "follow" ? LabelVotes::Follow : votes == "leave" ? LabelVotes::Leave : LabelVotes::Off;
   ltda_.classes = p.getIntList("classes");
   ltda_.ignore_classes = p.getIntList("ignore_classes");
   long_term_keyframes_ = static_cast<int>(p.getInt("long_term_keyframes"));
@@ -602,7 +601,9 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   std::vector<ObjectCandidate> small;
   std::vector<ObjectCandidate>* const small_out = small_candidate_keyframes_ > 0 ? &small : nullptr;
   auto candidates =
-      label_votes_ ? objectCandidates(*kf, ltda_, small_out, votes_, follow_votes_) : objectCandidates(*kf, ltda_, small_out);
+      label_votes_ != LabelVotes::Off
+          ? objectCandidates(*kf, ltda_, small_out, votes_, label_votes_ == LabelVotes::Follow)
+          : objectCandidates(*kf, ltda_, small_out);
   if (small_candidate_keyframes_ > 0)
     for (auto& c : small_.add(std::move(small), m->id, kf->id, small_candidate_keyframes_, ltda_)) {
       stats_.accumulated++;

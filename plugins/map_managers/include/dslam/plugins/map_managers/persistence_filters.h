@@ -160,7 +160,8 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   bool tentative_short_term_ = false;
   std::unordered_set<int64_t> missed_lately_;  ///< tentative objects with short-term negative evidence since their sighting
   SmallCandidatePool small_;  ///< candidates too small for an object, adding up
-  bool label_votes_ = false, follow_votes_ = false;  ///< label_votes: off, leave, follow
+  enum class LabelVotes { Off, Leave, Follow };
+  LabelVotes label_votes_ = LabelVotes::Off;  ///< label_votes
   PointClassVotes votes_;  ///< label fusion (label_votes)
   /** A motion found by re-identification: a prior for objects near `from`. */
   struct PriorMotion {
