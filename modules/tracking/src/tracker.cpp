@@ -177,12 +177,11 @@ TrackResult Tracker::track(Frame frame) {
   }
 
   if (!cur_.ref_kf) cur_.ref_kf = ref_kf_;
-  if (state_ == TrackState::Ok && cur_.T_cw && cur_.ref_kf)
+  if (state_ == TrackState::Ok && cur_.T_cw && cur_.ref_kf) {
     DSLAM_LOG(Trace, "tracking: frame " << cur_.f.index() << " (" << toString(res.method) << "): " << matches_inliers_
                                         << " inliers, reference keyframe " << cur_.ref_kf->id << ", camera at "
                                         << cur_.T_cw->inverse().translation().transpose() << ", reference at "
                                         << cur_.ref_kf->T_wc().translation().transpose());
-  if (state_ == TrackState::Ok && cur_.T_cw && cur_.ref_kf) {
     records_.push_back({cur_.f.index(), cur_.f.timestamp(), cur_.ref_kf, *cur_.T_cw * cur_.ref_kf->T_wc(), false});
   } else {
     records_.push_back({cur_.f.index(), cur_.f.timestamp(), nullptr, SE3(), true});

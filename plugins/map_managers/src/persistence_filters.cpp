@@ -733,6 +733,18 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     // Its appearance seen elsewhere, displaced rigidly: it was moved (ours).
     if (!tentative && reid_.min_inliers > 0 && (o.active || o.dormant)) {  // gone objects are gone already
       bool moved = false;
+      // Moved (by any rule below): the negative evidence p_twin, counted by
+      // rule, and its motion (if any) kept as a prior for objects near it.
+      auto movedAway = [&](int64_t* rule, const ObjectMotion* motion, const std::string& how) {
+        o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
+        stats_.reidentified++;
+        if (rule) ++*rule;
+        if (motion) motions_.push_back({m->id, kf->id, o.centroid, *motion, o.id, o.class_id});
+        traceObject(*kf, o, how.c_str());
+        moved = true;
+      };
+      // A motion found in this map in the last reid_prior_keyframes keyframes.
+      auto recent = [&](const PriorMotion& q) { return q.map == m->id && kf->id - q.kf <= prior_keyframes_; };
       std::optional<ReidAppearance> appearance;  // built once, for the first seen object of its class
       std::vector<ObjectMotion> priors;           // ... and the motions of objects found moved near it, lately
       for (const MapObject* s : seen_now) {
@@ -740,8 +752,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
         if (!appearance) {
           appearance = reidAppearance(o);
           for (const PriorMotion& q : motions_)
-            if (q.map == m->id && !q.motion.from_prior && kf->id - q.kf <= prior_keyframes_ &&
-                (q.from - o.centroid).norm() <= prior_radius_)
+            if (recent(q) && !q.motion.from_prior && (q.from - o.centroid).norm() <= prior_radius_)
               priors.push_back(q.motion);
         }
         const ObjectMotion mv = reidentify(*s, o, *appearance, reid_, priors);
@@ -752,16 +763,10 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
                                                   << " matches, shift " << mv.shift << " m)");
           continue;
         }
-        o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
-        stats_.reidentified++;
-        if (mv.from_prior) stats_.reidentified_by_prior++;
-        motions_.push_back({m->id, kf->id, o.centroid, mv, o.id, o.class_id});
-        traceObject(*kf, o,
-                    ("re-identified as object " + std::to_string(s->id) + ", moved " + std::to_string(mv.shift) +
-                     " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches" +
-                     (mv.from_prior ? ", by the motion of an object moved near it)" : ")"))
-                        .c_str());
-        moved = true;
+        movedAway(mv.from_prior ? &stats_.reidentified_by_prior : nullptr, &mv,
+                  "re-identified as object " + std::to_string(s->id) + ", moved " + std::to_string(mv.shift) +
+                      " m (" + std::to_string(mv.inliers) + " of " + std::to_string(mv.matches) + " matches" +
+                      (mv.from_prior ? ", by the motion of an object moved near it)" : ")"));
         break;
       }
       // Not found elsewhere itself, but a part of an object of its class
@@ -771,18 +776,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       // move but not after it have no descriptor matches with the new view.
       if (!moved && o.dormant && part_radius_ > 0)
         for (const PriorMotion& q : motions_) {
-          if (q.map != m->id || q.class_id != o.class_id || q.object == o.id || kf->id - q.kf > prior_keyframes_ ||
-              (q.from - o.centroid).norm() > part_radius_)
+          if (!recent(q) || q.class_id != o.class_id || q.object == o.id || (q.from - o.centroid).norm() > part_radius_)
             continue;
-          o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
-          stats_.reidentified++;
-          stats_.reidentified_as_part++;
-          traceObject(*kf, o,
-                      ("a part of object " + std::to_string(q.object) + " (found moved " +
-                       std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
-                       " m from it)")
-                          .c_str());
-          moved = true;
+          movedAway(&stats_.reidentified_as_part, nullptr,
+                    "a part of object " + std::to_string(q.object) + " (found moved " + std::to_string(q.motion.shift) +
+                        " m, " + std::to_string((q.from - o.centroid).norm()) + " m from it)");
           break;
         }
       // Not found elsewhere by its own matches, but the motion of an object
@@ -791,44 +789,27 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       // fragment of an object that stayed): moved with it (objects moved
       // together, a backpack on a moved chair, whose old place the chair now
       // hides and whose new view shares too few matches with the old one).
-      if (!moved && o.dormant && centroid_distance_ > 0) {
-        std::optional<PriorMotion> with;  // the neighbour's motion (a copy: motions_ grows below)
-        const MapObject* at = nullptr;
+      // Its motion is kept, for the parts of it (reid_part_radius).
+      if (!moved && o.dormant && centroid_distance_ > 0)
         for (const PriorMotion& q : motions_) {
-          if (q.map != m->id || q.object == o.id || kf->id - q.kf > prior_keyframes_ ||
-              (q.from - o.centroid).norm() > prior_radius_)
-            continue;
+          if (!recent(q) || q.object == o.id || (q.from - o.centroid).norm() > prior_radius_) continue;
           const Eigen::Vector3d to = q.motion.R * o.centroid + q.motion.t;
-          for (const MapObject* s : seen_now)
-            if (s->class_id == o.class_id && s->first_seen_t > o.last_seen_t && s->sightings >= 2 &&
-                (s->centroid - to).norm() <= centroid_distance_) {
-              at = s;
-              break;
-            }
-          if (at) {
-            with = q;
-            break;
-          }
-        }
-        if (with) {
-          const Eigen::Vector3d to = with->motion.R * o.centroid + with->motion.t;
-          o.belief = objectBeliefSeenElsewhere(o.belief, belief_);
-          stats_.reidentified++;
-          stats_.reidentified_by_centroid++;
-          // Its motion, for the parts of it (reid_part_radius) as for an object moved by a prior.
-          ObjectMotion mv = with->motion;
+          const auto at = std::find_if(seen_now.begin(), seen_now.end(), [&](const MapObject* s) {
+            return s->class_id == o.class_id && s->first_seen_t > o.last_seen_t && s->sightings >= 2 &&
+                   (s->centroid - to).norm() <= centroid_distance_;
+          });
+          if (at == seen_now.end()) continue;
+          ObjectMotion mv = q.motion;
           mv.from_prior = true;
           mv.shift = (to - o.centroid).norm();
-          motions_.push_back({m->id, kf->id, o.centroid, mv, o.id, o.class_id});
-          traceObject(*kf, o,
-                      ("moved with object " + std::to_string(with->object) + " (found moved " +
-                       std::to_string(with->motion.shift) + " m, " + std::to_string((with->from - o.centroid).norm()) +
-                       " m from it): its motion takes it " + std::to_string((at->centroid - to).norm()) +
-                       " m from object " + std::to_string(at->id))
-                          .c_str());
-          moved = true;
+          // The arguments read q before movedAway appends to motions_; q is not used after.
+          movedAway(&stats_.reidentified_by_centroid, &mv,
+                    "moved with object " + std::to_string(q.object) + " (found moved " +
+                        std::to_string(q.motion.shift) + " m, " + std::to_string((q.from - o.centroid).norm()) +
+                        " m from it): its motion takes it " + std::to_string(((*at)->centroid - to).norm()) +
+                        " m from object " + std::to_string((*at)->id));
+          break;
         }
-      }
       if (moved && o.belief < belief_threshold_) {
         setGone(o);
         continue;
