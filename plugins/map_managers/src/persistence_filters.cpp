@@ -230,6 +230,11 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
                "not show at its place, was part of it (an object mapped from several sides as several objects) and "
                "moved with it: the same negative evidence (p_twin); ours, 0 = off",
                0, 1000),
+      P_bool("reid_part_links", true,
+             "re-identification: a dormant object that one detection covered together with an object of its class "
+             "found moved (at least min_shared_points points of each labelled by that detection in one keyframe; "
+             "through other objects so covered, transitively) was part of it and moved with it, at any distance "
+             "(a large object mapped from several sides; ours, false = off)"),
       P_double("reid_centroid_distance", 0.25,
                "re-identification by a neighbour's motion without matches: a dormant object that the motion of an "
                "object found moved within reid_prior_radius of it (in the last reid_prior_keyframes keyframes) takes "
@@ -375,6 +380,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   prior_keyframes_ = static_cast<int>(p.getInt("reid_prior_keyframes"));
   prior_radius_ = p.getDouble("reid_prior_radius");
   part_radius_ = p.getDouble("reid_part_radius");
+  part_links_on_ = p.getBool("reid_part_links");
   centroid_distance_ = p.getDouble("reid_centroid_distance");
   motions_.clear();
   dormant_after_s_ = p.getDouble("dormant_after_s");
@@ -590,6 +596,47 @@ void ObjectPersistenceFilter::setGone(MapObject& o) {
   stats_.deactivated++;
 }
 
+void ObjectPersistenceFilter::linkParts(const KeyFrame& kf, const std::map<int64_t, MapObjectPtr>& objects) {
+  // By detection (class, instance): the objects of its class whose points it labelled, and how many.
+  std::map<std::pair<int, int32_t>, std::map<int64_t, size_t>> covered;
+  for (size_t i = 0; i < kf.points.size() && i < kf.meta.size(); i++) {
+    const MapPointPtr& mp = kf.points[i];
+    const KeypointMeta& k = kf.meta[i];
+    if (!mp || mp->bad || mp->map_object < 0 || k.label == KpLabel::Dynamic || k.class_id < 0 || k.object_id < 0)
+      continue;
+    const auto it = objects.find(mp->map_object);
+    if (it != objects.end() && it->second->class_id == k.class_id) covered[{k.class_id, k.object_id}][mp->map_object]++;
+  }
+  for (const auto& [det, counts] : covered) {
+    std::vector<int64_t> ids;
+    for (const auto& [id, n] : counts)
+      if (n >= ltda_.min_shared_points) ids.push_back(id);
+    for (size_t a = 0; a < ids.size(); a++)
+      for (size_t b = a + 1; b < ids.size(); b++)
+        if (part_links_[ids[a]].insert(ids[b]).second) {
+          part_links_[ids[b]].insert(ids[a]);
+          DSLAM_LOG(Trace, "objects: keyframe " << kf.id << ": objects " << ids[a] << " and " << ids[b]
+                                                << " covered by one detection (parts of one thing)");
+        }
+  }
+}
+
+bool ObjectPersistenceFilter::partsLinked(int64_t from, int64_t to) const {
+  std::set<int64_t> reached{from};
+  std::vector<int64_t> open{from};
+  while (!open.empty()) {
+    const int64_t id = open.back();
+    open.pop_back();
+    const auto it = part_links_.find(id);
+    if (it == part_links_.end()) continue;
+    for (int64_t next : it->second) {
+      if (next == to) return true;
+      if (reached.insert(next).second) open.push_back(next);
+    }
+  }
+  return false;
+}
+
 void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   FilteringMapManager::onKeyFrame(kf);
   Map* m = kf ? kf->map : nullptr;
@@ -670,6 +717,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   stats_.merged += mergeOverlappingObjects(objects, [this](const MapObject& o) {
     return o.active && !o.dormant && o.belief >= belief_threshold_;
   });
+  if (part_links_on_) linkParts(*kf, objects);
   std::vector<const MapObject*> seen_now;  // what this keyframe saw, for re-identification
   for (int64_t id : seen)
     if (auto it = objects.find(id); it != objects.end()) seen_now.push_back(it->second.get());
@@ -774,13 +822,16 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
       // (their centroids too far apart for association, their boxes too
       // thin to contain each other), and the parts the camera saw before the
       // move but not after it have no descriptor matches with the new view.
-      if (!moved && o.dormant && part_radius_ > 0)
+      // Or, at any distance, covered by one detection with it or with its parts (reid_part_links).
+      if (!moved && o.dormant && (part_radius_ > 0 || part_links_on_))
         for (const PriorMotion& q : motions_) {
-          if (!recent(q) || q.class_id != o.class_id || q.object == o.id || (q.from - o.centroid).norm() > part_radius_)
-            continue;
+          if (!recent(q) || q.class_id != o.class_id || q.object == o.id) continue;
+          const double d = (q.from - o.centroid).norm();
+          const bool near = part_radius_ > 0 && d <= part_radius_;
+          if (!near && !(part_links_on_ && partsLinked(q.object, o.id))) continue;
           movedAway(&stats_.reidentified_as_part, nullptr,
                     "a part of object " + std::to_string(q.object) + " (found moved " + std::to_string(q.motion.shift) +
-                        " m, " + std::to_string((q.from - o.centroid).norm()) + " m from it)");
+                        " m, " + std::to_string(d) + " m from it" + (near ? ")" : "; one detection covered both)"));
           break;
         }
       // Not found elsewhere by its own matches, but the motion of an object

@@ -28,9 +28,11 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <vector>
 
 #include "dslam/map/class_votes.h"
 #include "dslam/map/filtering_map_manager.h"
@@ -175,6 +177,15 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   int prior_keyframes_ = 20;
   double prior_radius_ = 2.0;
   double part_radius_ = 1.0;  ///< reid_part_radius
+  bool part_links_on_ = true;  ///< reid_part_links
+  /** By object id: the objects of its class that one detection covered
+   *  together with it in some keyframe (parts of one thing; reid_part_links).
+   *  Ids of objects merged or erased since stay, and lead nowhere. */
+  std::unordered_map<int64_t, std::set<int64_t>> part_links_;
+  /** Records the links of the detections of `kf` (after its association). */
+  void linkParts(const KeyFrame& kf, const std::map<int64_t, MapObjectPtr>& objects);
+  /** Whether `to` is reachable from `from` through part_links_. */
+  bool partsLinked(int64_t from, int64_t to) const;
   double centroid_distance_ = 0.25;  ///< reid_centroid_distance
   PersistenceStats stats_;
 };
