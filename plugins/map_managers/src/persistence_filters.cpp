@@ -304,9 +304,9 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
             "keyframes or more, one of them among this many last keyframes, when no detection of its class (the "
             "extent of its labelled keypoints) overlaps the candidate's image box (the detector missed it and the "
             "candidate's box labelled its keypoints), "
-            "unless the candidate holds half of its points or more (ours; 0 = off, the default; 3 measured: no stale "
-            "object at a place seen since over 49 shift_dark runs of seven pipeline seeds, the other figures within "
-            "the seeds' spread, but two one-seed targets missed; docs/changing.md step 9)",
+            "unless the candidate holds half of its points or more (ours; 0 = off, the plug-in's default; the "
+            "changing_slam pipelines set 3: over 49 shift_dark runs of seven pipeline seeds, stale objects 5 -> 1 "
+            "and no run above 5 cm after the return; docs/changing.md step 9)",
             0, 1000),
       P_double("missed_object_radius", 0.1,
                "... and the candidate's points within this distance (m) of one of that object's points (new points "
