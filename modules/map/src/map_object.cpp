@@ -15,6 +15,25 @@
 
 namespace dslam {
 
+namespace {
+
+/** Per axis, the median of the coordinates (an even count: the mean of the
+ *  two middle ones). `pts` must not be empty. */
+Eigen::Vector3d medianPoint(const std::vector<Eigen::Vector3d>& pts) {
+  const size_t n = pts.size();
+  std::vector<double> v(n);
+  Eigen::Vector3d m;
+  for (int a = 0; a < 3; a++) {
+    for (size_t i = 0; i < n; i++) v[i] = pts[i][a];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
+    m[a] = v[n / 2];
+    if (n % 2 == 0) m[a] = 0.5 * (m[a] + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2)));
+  }
+  return m;
+}
+
+}  // namespace
+
 size_t MapObject::refresh() {
   std::map<int64_t, MapPointPtr> alive;
   for (const auto& [pid, p] : points) {
@@ -29,7 +48,7 @@ size_t MapObject::refresh() {
     xs.push_back(p->pos);
     sum += p->pos;
   }
-  if (!xs.empty()) centroid = sum / static_cast<double>(xs.size());
+  if (!xs.empty()) centroid = median_centroid ? medianPoint(xs) : Eigen::Vector3d(sum / static_cast<double>(xs.size()));
   robustBox(xs, box_min, box_max);
   return points.size();
 }
@@ -309,6 +328,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
       o->first_seen_kf = kf_id;
       o->first_seen_t = t;
       o->first_box = cand.box;
+      o->median_centroid = p.median_centroid;
       objects[o->id] = o;
       out[c] = {c, o->id, true, 0.0, -1, 0.0};
     }
