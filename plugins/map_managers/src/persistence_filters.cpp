@@ -173,7 +173,7 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
              "sharing min_shared_points of its points, or its points found again (point evidence), wake it, so "
              "that another thing labelled with its class next to its place does not (ours)"),
       P_enum("centroid", "mean", {"mean", "median"},
-             "an object's centroid: mean = the mean of its points (Changing-SLAM 4.2); median = their per-axis "
+             "an object's centroid: mean = the mean of its points (Changing-SLAM's MapObject); median = their per-axis "
              "median, which points of an occluder that joined the object (a thing in front of it whose detection "
              "was missed, labelled with the box behind it) cannot drag off the object while they are fewer than "
              "half (ours; docs/changing.md). Objects loaded from an atlas follow this setting from the first "
