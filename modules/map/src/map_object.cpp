@@ -32,6 +32,20 @@ Eigen::Vector3d medianPoint(const std::vector<Eigen::Vector3d>& pts) {
   return m;
 }
 
+/** The mean of the points within `r` of their per-axis median (the median
+ *  itself when none is). */
+Eigen::Vector3d meanNearMedian(const std::vector<Eigen::Vector3d>& pts, double r) {
+  const Eigen::Vector3d m = medianPoint(pts);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  size_t n = 0;
+  for (const auto& x : pts)
+    if ((x - m).squaredNorm() <= r * r) {
+      sum += x;
+      n++;
+    }
+  return n ? Eigen::Vector3d(sum / static_cast<double>(n)) : m;
+}
+
 }  // namespace
 
 size_t MapObject::refresh() {
@@ -48,7 +62,8 @@ size_t MapObject::refresh() {
     xs.push_back(p->pos);
     sum += p->pos;
   }
-  if (!xs.empty()) centroid = median_centroid ? medianPoint(xs) : Eigen::Vector3d(sum / static_cast<double>(xs.size()));
+  if (!xs.empty()) centroid = centroid_radius > 0 ? meanNearMedian(xs, centroid_radius)
+                                                 : Eigen::Vector3d(sum / static_cast<double>(xs.size()));
   robustBox(xs, box_min, box_max);
   return points.size();
 }
@@ -328,7 +343,7 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
       o->first_seen_kf = kf_id;
       o->first_seen_t = t;
       o->first_box = cand.box;
-      o->median_centroid = p.median_centroid;
+      o->centroid_radius = p.centroid_radius;
       objects[o->id] = o;
       out[c] = {c, o->id, true, 0.0, -1, 0.0};
     }

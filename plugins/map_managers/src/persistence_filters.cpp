@@ -172,12 +172,14 @@ std::vector<ParamSpec> ObjectPersistenceFilter::paramSpecs() const {
              "its class by centroid distance alone (ltda_threshold), which wakes it; false: only a candidate "
              "sharing min_shared_points of its points, or its points found again (point evidence), wake it, so "
              "that another thing labelled with its class next to its place does not (ours)"),
-      P_enum("centroid", "mean", {"mean", "median"},
-             "an object's centroid: mean = the mean of its points (Changing-SLAM's MapObject); median = their per-axis "
-             "median, which points of an occluder that joined the object (a thing in front of it whose detection "
-             "was missed, labelled with the box behind it) cannot drag off the object while they are fewer than "
-             "half (ours; docs/changing.md). Objects loaded from an atlas follow this setting from the first "
-             "keyframe on"),
+      P_double("centroid_radius", 0,
+               "an object's centroid: 0 = the mean of its points (Changing-SLAM's MapObject); > 0 = the mean of "
+               "its points within this distance (m) of their per-axis median, which points of an occluder that "
+               "joined the object (a thing in front of it whose detection was missed, labelled with the box behind "
+               "it) cannot drag off the object while they are fewer than half and farther than this (ours; "
+               "docs/changing.md step 14). Objects loaded from an atlas follow this setting from the first "
+               "keyframe on",
+               0, 100),
       P_enum("label_votes", "off", {"off", "leave", "follow"},
              "label fusion: each map point counts the classes keyframes label its keypoint with (object classes, "
              "not dynamic); when most keyframes gave it another class than this keyframe's label (a detector that "
@@ -359,7 +361,7 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   ltda_.min_points = static_cast<int>(p.getInt("min_points"));
   ltda_.min_shared_points = static_cast<size_t>(p.getInt("min_shared_points"));
   ltda_.dormant_by_distance = p.getBool("dormant_by_distance");
-  ltda_.median_centroid = p.getString("centroid") == "median";
+  ltda_.centroid_radius = p.getDouble("centroid_radius");
   const std::string votes = p.getString("label_votes");
   label_votes_ = votes == "follow" ? LabelVotes::Follow : votes == "leave" ? LabelVotes::Leave : LabelVotes::Off;
   ltda_.classes = p.getIntList("classes");
@@ -653,7 +655,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
   if (kf->bad) return;
   stats_.keyframes++;
   auto& objects = m->objects();
-  for (auto& [id, o] : objects) o->median_centroid = ltda_.median_centroid;  // also objects loaded from an atlas
+  for (auto& [id, o] : objects) o->centroid_radius = ltda_.centroid_radius;  // also objects loaded from an atlas
   std::vector<ObjectCandidate> small;
   std::vector<ObjectCandidate>* const small_out = small_candidate_keyframes_ > 0 ? &small : nullptr;
   auto candidates =

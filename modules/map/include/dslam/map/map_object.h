@@ -4,8 +4,8 @@
  *  long-term data association.
  *
  *  A MapObject groups the map points created on one detected object: its
- *  class (COCO id), centroid (mean of its points, or their per-axis median:
- *  `median_centroid`), 3D box (per axis, the
+ *  class (COCO id), centroid (mean of its points, or of those near their
+ *  per-axis median: `centroid_radius`), 3D box (per axis, the
  *  median of the 5% smallest and of the 5% largest coordinates: robust to
  *  a few stray points), first and latest 2D box, the belief that it is still
  *  there and whether its points are active. Objects live in their Map
@@ -49,12 +49,13 @@ struct MapObject {
   int64_t first_seen_kf = -1, last_seen_kf = -1;
   double first_seen_t = 0, last_seen_t = 0;
   int sightings = 0;                          ///< keyframes that saw it
-  bool median_centroid = false;               ///< centroid = per-axis median of the points, not their mean
-                                              ///< (robust to points of an occluder that joined it; ours)
+  double centroid_radius = 0;                 ///< > 0: centroid = mean of the points within this distance (m)
+                                              ///< of their per-axis median (robust to points of an occluder
+                                              ///< that joined it; ours); 0 = mean of all (Changing-SLAM)
 
   /** Drops bad points (follows fused ones) and points another object took
-   *  (a point is in one object), recomputes centroid (mean, or median with
-   *  `median_centroid`) and box. Returns the number of points left. */
+   *  (a point is in one object), recomputes centroid (`centroid_radius`)
+   *  and box. Returns the number of points left. */
   size_t refresh();
   size_t numPoints() const { return points.size(); }
   /** Corner k (0-7) of the 3D box: bit 0 picks max x, bit 1 max y, bit 2 max z. */
@@ -104,7 +105,7 @@ struct LtdaParams {
   size_t min_shared_points = 3;   ///< a candidate with this many of an object's points is that object
   bool dormant_by_distance = true;  ///< a dormant object may be associated by centroid distance alone (false:
                                     ///< only by shared points; its points found again still wake it)
-  bool median_centroid = false;   ///< new objects' centroid is the per-axis median of their points (MapObject)
+  double centroid_radius = 0;     ///< new objects' MapObject::centroid_radius (0 = mean of all points)
   std::vector<int> classes;       ///< classes that make objects ([] = every COCO thing, ids 1-91, except ignore_classes)
   std::vector<int> ignore_classes{1};  ///< never objects (people move; they are dynamic, not changing)
 };
