@@ -360,6 +360,45 @@ TEST(DepthRepopulation, SharedAreaOfOverlappingBoxesIsIgnored) {
   EXPECT_FLOAT_EQ(without->lastStats()[0].min, 0.8f);  // B leaks into A's statistics
 }
 
+// A backpack's box inside a chair's (held-out shift_s11, docs/changing.md
+// step 15): with exclude_overlap every pixel of it is shared, so it has no
+// statistics of its own and keeps every keypoint in it on the backpack, the
+// wall 2.4 m behind it too. With overlap_fallback it takes the shared pixels
+// back: object depth 2.6 m, the wall behind it background.
+TEST(DepthRepopulation, OverlapFallbackGivesABoxInsideAnotherItsStatistics) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(5.0f));  // wall
+  depth(cv::Rect(100, 100, 300, 300)).setTo(2.0f);     // the chair
+  depth(cv::Rect(200, 250, 60, 80)).setTo(5.0f);       // the wall seen beside the backpack
+  depth(cv::Rect(205, 260, 50, 70)).setTo(2.6f);       // the backpack
+  Detections d;
+  d.boxes = {box(100, 100, 300, 300, 62), box(200, 250, 60, 80, 27)};
+  const std::vector<cv::Point2f> pts = {{230, 290}, {202, 255}};  // on the backpack; the wall in its box
+  auto run = [&](const std::string& yaml, Frame& f) {
+    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
+    rep->classify(f, d, {});
+    return rep->lastStats();
+  };
+  Frame f = depthFrame(depth, pts);
+  const auto off = run("", f);
+  ASSERT_EQ(off.size(), 2u);
+  EXPECT_LT(off[1].samples, 10);  // no pixel of its own
+  EXPECT_FLOAT_EQ(off[0].object_depth, 2.0f);
+  for (int i : {0, 1}) {
+    EXPECT_EQ(f.meta[i].label, KpLabel::Movable) << i;
+    EXPECT_EQ(f.meta[i].class_id, 27) << i;  // the wall too
+  }
+  Frame g = depthFrame(depth, pts);
+  const auto on = run("overlap_fallback: true", g);
+  ASSERT_EQ(on.size(), 2u);
+  EXPECT_GE(on[1].samples, 10);
+  EXPECT_FLOAT_EQ(on[1].object_depth, 2.6f);
+  EXPECT_FLOAT_EQ(on[0].object_depth, 2.0f);  // the chair's own statistics as before
+  EXPECT_EQ(g.meta[0].label, KpLabel::Movable);
+  EXPECT_EQ(g.meta[0].class_id, 27);
+  EXPECT_EQ(g.meta[1].label, KpLabel::Static);  // the wall behind both boxes' objects
+  EXPECT_NE(g.meta[1].class_id, 27);
+}
+
 // A plant (COCO 64) in front of a desk (67, listed first): keypoints on the
 // plant inside both boxes are the plant's (overlap_class: front), not the
 // desk's as with overlap_class: first; the desk seen beside the plant,

@@ -70,6 +70,11 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "(the earlier rule; measured in docs/classifiers.md)"),
       P_double("front_margin", 0.1, "overlap_class front: metres in front of a box's object depth (chosen)", 0, 100),
       P_bool("exclude_overlap", true, "leave pixels shared by overlapping boxes out of the statistics (Changing-SLAM 4.1)"),
+      P_bool("overlap_fallback", false,
+             "exclude_overlap: a box left with fewer than min_samples depth samples of its own (e.g. a small box "
+             "inside a bigger one) takes its shared pixels back into its statistics, instead of keeping every "
+             "keypoint in it on its object whatever its depth (ours; false = as Changing-SLAM, which does not say; "
+             "docs/changing.md step 15)"),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
             1000000),
@@ -100,6 +105,7 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   see_through_classes_ = cls::cocoIdList(p, "see_through_classes");
   overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
+  overlap_fallback_ = p.getBool("overlap_fallback");
   overlap_front_ = p.getString("overlap_class") == "front";
   front_margin_ = p.getDouble("front_margin");
   const std::string oc = p.getString("occlusion_check");
@@ -310,6 +316,10 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
                 ch = box.height * static_cast<float>(center_fraction_);
     const cv::Rect2f center(box.x + 0.5f * (box.width - cw), box.y + 0.5f * (box.height - ch), cw, ch);
     sampleBoxDepths(frame, box, center, shared, stride_, buf_, cbuf_);
+    if (overlap_fallback_ && !shared.empty() && static_cast<int>(buf_.size()) < min_samples_) {
+      shared.clear();  // too few pixels of its own: the shared ones back in
+      sampleBoxDepths(frame, box, center, shared, stride_, buf_, cbuf_);
+    }
 
     BoxDepthStats st;
     st.box = b;

@@ -72,7 +72,7 @@ class DepthRepopulation : public KeypointClassifier {
          side_span_ = 0,
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
-  bool exclude_overlap_ = true;
+  bool exclude_overlap_ = true, overlap_fallback_ = false;
   bool overlap_front_ = true;  ///< overlap_class: front
   double front_margin_ = 0.1;
   enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
