@@ -2,6 +2,7 @@
 // Algorithm 1).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "dslam/map/map_object.h"
@@ -49,8 +50,21 @@ TEST(MapObject, RobustBoxIgnoresAFewStrayPoints) {
   EXPECT_NEAR(hi.x(), 0.975, 0.02);
   EXPECT_NEAR(lo.y(), 2.025, 0.02);
   EXPECT_NEAR(hi.z(), -0.5125, 0.02);
-  robustBox({}, lo, hi);
+  // With `median`: the per-axis median of all 402 (the mean of the middle two).
+  Eigen::Vector3d med;
+  robustBox(pts, lo, hi, 0.05, &med);
+  for (int a = 0; a < 3; a++) {
+    std::vector<double> v;
+    for (const auto& x : pts) v.push_back(x[a]);
+    std::sort(v.begin(), v.end());
+    EXPECT_EQ(med[a], 0.5 * (v[201] + v[200])) << a;
+  }
+  EXPECT_NEAR(med.x(), 0.5, 0.05);
+  EXPECT_NEAR(med.y(), 2.5, 0.05);
+  EXPECT_NEAR(med.z(), -0.75, 0.03);
+  robustBox({}, lo, hi, 0.05, &med);
   EXPECT_EQ(lo, Eigen::Vector3d::Zero());
+  EXPECT_EQ(med, Eigen::Vector3d::Zero());
 }
 
 TEST(MapObject, CentroidNearTheMedianStaysOnTheObjectWhenAnOccludersPointsJoinIt) {

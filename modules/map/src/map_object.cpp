@@ -17,25 +17,9 @@ namespace dslam {
 
 namespace {
 
-/** Per axis, the median of the coordinates (an even count: the mean of the
- *  two middle ones). `pts` must not be empty. */
-Eigen::Vector3d medianPoint(const std::vector<Eigen::Vector3d>& pts) {
-  const size_t n = pts.size();
-  std::vector<double> v(n);
-  Eigen::Vector3d m;
-  for (int a = 0; a < 3; a++) {
-    for (size_t i = 0; i < n; i++) v[i] = pts[i][a];
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
-    m[a] = v[n / 2];
-    if (n % 2 == 0) m[a] = 0.5 * (m[a] + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2)));
-  }
-  return m;
-}
-
-/** The mean of the points within `r` of their per-axis median (the median
+/** The mean of the points within `r` of `m`, their per-axis median (`m`
  *  itself when none is). */
-Eigen::Vector3d meanNearMedian(const std::vector<Eigen::Vector3d>& pts, double r) {
-  const Eigen::Vector3d m = medianPoint(pts);
+Eigen::Vector3d meanNear(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& m, double r) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   size_t n = 0;
   for (const auto& x : pts)
@@ -62,9 +46,10 @@ size_t MapObject::refresh() {
     xs.push_back(p->pos);
     sum += p->pos;
   }
-  if (!xs.empty()) centroid = centroid_radius > 0 ? meanNearMedian(xs, centroid_radius)
+  Eigen::Vector3d median;
+  robustBox(xs, box_min, box_max, 0.05, centroid_radius > 0 ? &median : nullptr);  // sorts each axis once
+  if (!xs.empty()) centroid = centroid_radius > 0 ? meanNear(xs, median, centroid_radius)
                                                  : Eigen::Vector3d(sum / static_cast<double>(xs.size()));
-  robustBox(xs, box_min, box_max);
   return points.size();
 }
 
@@ -79,9 +64,11 @@ void MapObject::addPoint(const MapPointPtr& mp) {
   mp->active = active;
 }
 
-void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi, double fraction) {
+void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi, double fraction,
+               Eigen::Vector3d* median) {
   lo.setZero();
   hi.setZero();
+  if (median) median->setZero();
   if (pts.empty()) return;
   const size_t n = pts.size();
   const size_t k = std::max<size_t>(1, static_cast<size_t>(std::lround(fraction * static_cast<double>(n))));
@@ -92,6 +79,7 @@ void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eig
     // Median of the k smallest and of the k largest.
     lo[a] = k % 2 ? v[k / 2] : 0.5 * (v[k / 2 - 1] + v[k / 2]);
     hi[a] = k % 2 ? v[n - 1 - k / 2] : 0.5 * (v[n - k / 2] + v[n - 1 - k / 2]);
+    if (median) (*median)[a] = n % 2 ? v[n / 2] : 0.5 * (v[n / 2] + v[n / 2 - 1]);
   }
 }
 

@@ -82,9 +82,11 @@ struct MapObject {
 using MapObjectPtr = std::shared_ptr<MapObject>;
 
 /** Per axis: the median of the `fraction` smallest and of the `fraction`
- *  largest coordinates (at least one point each). Empty input: zeros. */
+ *  largest coordinates (at least one point each), and with `median` the
+ *  median of all (an even count: the mean of the middle two). Empty input:
+ *  zeros. */
 void robustBox(const std::vector<Eigen::Vector3d>& pts, Eigen::Vector3d& lo, Eigen::Vector3d& hi,
-               double fraction = 0.05);
+               double fraction = 0.05, Eigen::Vector3d* median = nullptr);
 
 /** Points of one keyframe that belong to one object. */
 struct ObjectCandidate {
