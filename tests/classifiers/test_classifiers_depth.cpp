@@ -399,6 +399,60 @@ TEST(DepthRepopulation, OverlapFallbackGivesABoxInsideAnotherItsStatistics) {
   EXPECT_NE(g.meta[1].class_id, 27);
 }
 
+// The backpack's box inside the chair's again, the chair's seat across the
+// top of the backpack's box and the backpack 1 m behind the seat. The plain
+// fallback takes the seat back into the backpack's statistics: its object
+// depth is the seat's, and the backpack, deeper than the seat by more than
+// the margin at the centre, is taken for something seen past an occluder:
+// every keypoint in the box Dynamic. fallback_skip_other_objects leaves the
+// seat's pixels (the chair's object depth and its margin) out: object depth
+// 3 m, the backpack's keypoint on the backpack, the wall behind it
+// background, the seat's keypoint the chair's.
+TEST(DepthRepopulation, FallbackSkippingOtherObjectsKeepsTheBiggerObjectsSurfaceOut) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(5.0f));  // wall
+  depth(cv::Rect(100, 100, 300, 300)).setTo(2.0f);     // the chair
+  depth(cv::Rect(200, 250, 60, 80)).setTo(5.0f);       // the wall seen under the seat
+  depth(cv::Rect(205, 270, 50, 60)).setTo(3.0f);       // the backpack
+  depth(cv::Rect(200, 250, 60, 15)).setTo(2.0f);       // the seat across the box's top
+  Detections d;
+  d.boxes = {box(100, 100, 300, 300, 62), box(200, 250, 60, 80, 27)};
+  const std::vector<cv::Point2f> pts = {{230, 300}, {202, 300}, {230, 255}};  // backpack, wall, seat
+  auto run = [&](const std::string& yaml, Frame& f) {
+    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
+    rep->classify(f, d, {});
+    return rep->lastStats();
+  };
+  Frame f = depthFrame(depth, pts);
+  const auto plain = run("overlap_fallback: true", f);
+  ASSERT_EQ(plain.size(), 2u);
+  EXPECT_FLOAT_EQ(plain[1].object_depth, 2.0f);  // the seat
+  EXPECT_TRUE(plain[1].occluded);
+  EXPECT_EQ(f.meta[0].label, KpLabel::Dynamic);
+  EXPECT_EQ(f.meta[0].reason, KpReason::Occluded);
+
+  Frame g = depthFrame(depth, pts);
+  const auto skip = run("overlap_fallback: true\nfallback_skip_other_objects: true", g);
+  ASSERT_EQ(skip.size(), 2u);  // in the order of the boxes
+  EXPECT_EQ(skip[0].box, 0);
+  EXPECT_FLOAT_EQ(skip[0].object_depth, 2.0f);
+  EXPECT_EQ(skip[1].box, 1);
+  EXPECT_GE(skip[1].samples, 10);
+  EXPECT_FLOAT_EQ(skip[1].object_depth, 3.0f);
+  EXPECT_FALSE(skip[1].occluded);
+  EXPECT_EQ(g.meta[0].label, KpLabel::Movable);
+  EXPECT_EQ(g.meta[0].class_id, 27);
+  EXPECT_EQ(g.meta[1].label, KpLabel::Static);  // the wall
+  EXPECT_EQ(g.meta[2].label, KpLabel::Movable);
+  EXPECT_EQ(g.meta[2].class_id, 62);  // the seat
+
+  // Without overlap_fallback the option changes nothing.
+  Frame h = depthFrame(depth, pts);
+  const auto off = run("fallback_skip_other_objects: true", h);
+  EXPECT_LT(off[1].samples, 10);
+  EXPECT_EQ(h.meta[1].label, KpLabel::Movable);
+  EXPECT_EQ(h.meta[1].class_id, 27);  // the wall too, as without the fallback
+}
+
 // A plant (COCO 64) in front of a desk (67, listed first): keypoints on the
 // plant inside both boxes are the plant's (overlap_class: front), not the
 // desk's as with overlap_class: first; the desk seen beside the plant,

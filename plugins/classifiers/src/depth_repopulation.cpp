@@ -75,6 +75,11 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "inside a bigger one) takes its shared pixels back into its statistics, instead of keeping every "
              "keypoint in it on its object whatever its depth (ours; false = as Changing-SLAM, which does not say; "
              "docs/changing.md step 15)"),
+      P_bool("fallback_skip_other_objects", false,
+             "overlap_fallback: of the shared pixels taken back, those on the object of a box they are shared with "
+             "(from front_margin in front of to its depth margin behind that box's object depth) stay out, so the "
+             "small box's statistics are its own object and what is around it, not the bigger object's surface "
+             "(ours; false = every shared pixel back in; docs/changing.md step 16)"),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
             1000000),
@@ -106,6 +111,7 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   overlap_dilation_ = p.getDouble("overlap_dilation");
   exclude_overlap_ = p.getBool("exclude_overlap");
   overlap_fallback_ = p.getBool("overlap_fallback");
+  fallback_skip_others_ = p.getBool("fallback_skip_other_objects");
   overlap_front_ = p.getString("overlap_class") == "front";
   front_margin_ = p.getDouble("front_margin");
   const std::string oc = p.getString("occlusion_check");
@@ -256,6 +262,65 @@ void nearLayerSpan(const Frame& frame, const cv::Rect2f& box, const std::vector<
 
 }  // namespace
 
+cv::Rect2f DepthRepopulation::centerWindow(const cv::Rect2f& box) const {
+  const float cw = box.width * static_cast<float>(center_fraction_),
+              ch = box.height * static_cast<float>(center_fraction_);
+  return {box.x + 0.5f * (box.width - cw), box.y + 0.5f * (box.height - ch), cw, ch};
+}
+
+/** Statistics of box `b` (`box`, clipped to the image) from the samples in
+ *  buf_ (the box) and cbuf_ (its central window); `shared`: the overlaps
+ *  left out (for the near layer). */
+BoxDepthStats DepthRepopulation::boxStats(const Frame& frame, const BoundingBox& bb, int b, const cv::Rect2f& box,
+                                          const std::vector<cv::Rect2f>& shared) {
+  BoxDepthStats st;
+  st.box = b;
+  st.class_id = bb.class_id;
+  auto mit = margin_.find(bb.class_id);
+  st.margin = static_cast<float>(mit == margin_.end() ? margin_default_ : mit->second);
+  const auto pit = percentile_.find(bb.class_id);
+  const Summary s = summarize(buf_, pit == percentile_.end() ? min_percentile_ : pit->second);
+  st.samples = s.n;
+  st.min = s.min, st.max = s.max, st.mean = s.mean, st.median = s.median, st.stddev = s.stddev;
+  st.object_depth = s.pct;
+  const Summary c = summarize(cbuf_, 0);
+  st.center_depth = c.n > 0 ? c.median : 0.f;
+  st.center_std = c.stddev;
+  const bool enough = s.n >= min_samples_;
+  const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
+  const bool check = occlusion_ == Occlusion::All || (occlusion_ == Occlusion::Dynamic && dyn_class);
+  if (check && enough && c.n > 0)
+    st.occluded = st.center_depth > st.object_depth + st.margin || st.center_std > max_center_std_;
+  if (st.occluded && occlusion_span_ > 0 && !dyn_class) {
+    // The near layer across the whole box is the object, seen through.
+    nearLayerSpan(frame, box, shared, stride_, st.object_depth + st.margin, xs_, ys_, st.near_span_x,
+                  st.near_span_y);
+    const bool table = cls::contains(see_through_classes_, bb.class_id);
+    if (st.near_span_x >= occlusion_span_ && (table || st.near_span_y >= occlusion_span_)) st.occluded = false;
+  }
+  if (st.occluded && side_span_ > 0 && !dyn_class && st.center_std <= max_center_std_ &&
+      st.near_span_x < side_span_) {
+    // Something in front of one side only: the object is the surface at
+    // the centre; its nearest depth within the margin of the centre depth.
+    const float from = st.center_depth - st.margin;
+    float nearest = st.center_depth;
+    for (float d : buf_)
+      if (d >= from && d < nearest) nearest = d;
+    st.occluder_depth = st.object_depth;
+    st.object_depth = nearest;
+    st.occluded = false;
+  }
+  DSLAM_LOG(Trace, "DepthRepopulation frame " << frame.index() << " box class " << bb.class_id << " ["
+                                               << box.x << ", " << box.y << ", " << box.width << " x " << box.height
+                                               << "]: object depth " << st.object_depth << " m, centre "
+                                               << st.center_depth << " m (std " << st.center_std
+                                               << "), near layer " << st.near_span_x << " x " << st.near_span_y
+                                               << (st.occluded ? ": occluded" : "")
+                                               << (st.occluder_depth > 0 ? ": side occluder" : ""));
+
+  return st;
+}
+
 void DepthRepopulation::classify(Frame& frame, const Detections& det, const ClassifierContext& ctx) {
   cls::ensureMeta(frame);
   stats_.clear();
@@ -295,78 +360,92 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
   };
 
   const cv::Rect2f full(0, 0, static_cast<float>(img.width), static_cast<float>(img.height));
-  for (int b : sel) {
-    const BoundingBox& bb = det.boxes[b];
-    const cv::Rect2f box = bb.box & full;
+  // Other boxes widened by overlap_dilation (detector boxes are not exact).
+  auto dilated = [&](int o) {
+    const cv::Rect2f& ob = det.boxes[o].box;
+    const auto dil = static_cast<float>(overlap_dilation_);
+    const float dx = ob.width * dil, dy = ob.height * dil;
+    return cv::Rect2f(ob.x - dx, ob.y - dy, ob.width + 2 * dx, ob.height + 2 * dy);
+  };
+  // Statistics of each selected box (index in sel), then its keypoints'
+  // labels in the order of sel. With fallback_skip_other_objects the boxes
+  // short of samples of their own come last: their fallback needs the
+  // object depths of the boxes they share pixels with.
+  std::vector<BoxDepthStats> st_of(sel.size());
+  std::vector<cv::Rect2f> rect_of(sel.size());
+  std::vector<char> done(sel.size(), 0);
+  std::vector<size_t> deferred;
+  for (size_t k = 0; k < sel.size(); k++) {
+    const int b = sel[k];
+    const cv::Rect2f box = det.boxes[b].box & full;
     if (box.width <= 0 || box.height <= 0) continue;
-    // Overlaps with the other considered boxes (left out of the statistics).
+    rect_of[k] = box;
+    // Overlaps with the other considered boxes (left out of the statistics):
+    // another labelled object in front is no unlabelled occluder.
     std::vector<cv::Rect2f> shared;
     if (exclude_overlap_)
       for (int o : sel)
         if (o != b) {
-          // Another labelled object in front is no unlabelled occluder: its box
-          // widened by overlap_dilation (detector boxes are not exact) is left out.
-          const cv::Rect2f& ob = det.boxes[o].box;
-          const auto dil = static_cast<float>(overlap_dilation_);
-          const float dx = ob.width * dil, dy = ob.height * dil;
-          const cv::Rect2f x = box & cv::Rect2f(ob.x - dx, ob.y - dy, ob.width + 2 * dx, ob.height + 2 * dy);
+          const cv::Rect2f x = box & dilated(o);
           if (x.width > 0 && x.height > 0) shared.push_back(x);
         }
-    const float cw = box.width * static_cast<float>(center_fraction_),
-                ch = box.height * static_cast<float>(center_fraction_);
-    const cv::Rect2f center(box.x + 0.5f * (box.width - cw), box.y + 0.5f * (box.height - ch), cw, ch);
-    sampleBoxDepths(frame, box, center, shared, stride_, buf_, cbuf_);
+    sampleBoxDepths(frame, box, centerWindow(box), shared, stride_, buf_, cbuf_);
     if (overlap_fallback_ && !shared.empty() && static_cast<int>(buf_.size()) < min_samples_) {
+      if (fallback_skip_others_) {
+        deferred.push_back(k);
+        continue;
+      }
       shared.clear();  // too few pixels of its own: the shared ones back in
-      sampleBoxDepths(frame, box, center, shared, stride_, buf_, cbuf_);
+      sampleBoxDepths(frame, box, centerWindow(box), shared, stride_, buf_, cbuf_);
     }
+    st_of[k] = boxStats(frame, det.boxes[b], b, box, shared);
+    done[k] = 1;
+  }
+  for (size_t k : deferred) {
+    // The shared pixels back in, but not those on the object of a box they
+    // are shared with (within front_margin in front of and that box's
+    // depth margin behind its object depth).
+    const cv::Rect2f& box = rect_of[k];
+    struct Layer {
+      cv::Rect2f rect;
+      float from, to;
+    };
+    std::vector<Layer> layers;
+    for (size_t o = 0; o < sel.size(); o++) {
+      const BoxDepthStats& so = st_of[o];
+      if (o == k || !done[o] || so.occluded || so.samples < min_samples_) continue;
+      const cv::Rect2f x = box & dilated(sel[o]);
+      if (x.width > 0 && x.height > 0)
+        layers.push_back({x, so.object_depth - static_cast<float>(front_margin_), so.object_depth + so.margin});
+    }
+    auto keep = [&](float x, float y, float d) {
+      for (const Layer& l : layers)
+        if (x >= l.rect.x && y >= l.rect.y && x < l.rect.x + l.rect.width && y < l.rect.y + l.rect.height &&
+            d >= l.from && d <= l.to)
+          return false;
+      return true;
+    };
+    buf_.clear();
+    cbuf_.clear();
+    forBoxDepths(frame, box, {}, stride_, [&](float x, float y, float d) {
+      if (keep(x, y, d)) buf_.push_back(d);
+    });
+    forBoxDepths(frame, centerWindow(box), {}, 1, [&](float x, float y, float d) {
+      if (keep(x, y, d)) cbuf_.push_back(d);
+    });
+    st_of[k] = boxStats(frame, det.boxes[sel[k]], sel[k], box, {});
+    done[k] = 1;
+  }
 
-    BoxDepthStats st;
-    st.box = b;
-    st.class_id = bb.class_id;
-    auto mit = margin_.find(bb.class_id);
-    st.margin = static_cast<float>(mit == margin_.end() ? margin_default_ : mit->second);
-    const auto pit = percentile_.find(bb.class_id);
-    const Summary s = summarize(buf_, pit == percentile_.end() ? min_percentile_ : pit->second);
-    st.samples = s.n;
-    st.min = s.min, st.max = s.max, st.mean = s.mean, st.median = s.median, st.stddev = s.stddev;
-    st.object_depth = s.pct;
-    const Summary c = summarize(cbuf_, 0);
-    st.center_depth = c.n > 0 ? c.median : 0.f;
-    st.center_std = c.stddev;
-    const bool enough = s.n >= min_samples_;
-    const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
-    const bool check = occlusion_ == Occlusion::All || (occlusion_ == Occlusion::Dynamic && dyn_class);
-    if (check && enough && c.n > 0)
-      st.occluded = st.center_depth > st.object_depth + st.margin || st.center_std > max_center_std_;
-    if (st.occluded && occlusion_span_ > 0 && !dyn_class) {
-      // The near layer across the whole box is the object, seen through.
-      nearLayerSpan(frame, box, shared, stride_, st.object_depth + st.margin, xs_, ys_, st.near_span_x,
-                    st.near_span_y);
-      const bool table = cls::contains(see_through_classes_, bb.class_id);
-      if (st.near_span_x >= occlusion_span_ && (table || st.near_span_y >= occlusion_span_)) st.occluded = false;
-    }
-    if (st.occluded && side_span_ > 0 && !dyn_class && st.center_std <= max_center_std_ &&
-        st.near_span_x < side_span_) {
-      // Something in front of one side only: the object is the surface at
-      // the centre; its nearest depth within the margin of the centre depth.
-      const float from = st.center_depth - st.margin;
-      float nearest = st.center_depth;
-      for (float d : buf_)
-        if (d >= from && d < nearest) nearest = d;
-      st.occluder_depth = st.object_depth;
-      st.object_depth = nearest;
-      st.occluded = false;
-    }
+  for (size_t k = 0; k < sel.size(); k++) {
+    if (!done[k]) continue;
+    const int b = sel[k];
+    const BoundingBox& bb = det.boxes[b];
+    const cv::Rect2f& box = rect_of[k];
+    const BoxDepthStats& st = st_of[k];
     stats_.push_back(st);
-    DSLAM_LOG(Trace, "DepthRepopulation frame " << frame.index() << " box class " << bb.class_id << " ["
-                                                 << box.x << ", " << box.y << ", " << box.width << " x " << box.height
-                                                 << "]: object depth " << st.object_depth << " m, centre "
-                                                 << st.center_depth << " m (std " << st.center_std
-                                                 << "), near layer " << st.near_span_x << " x " << st.near_span_y
-                                                 << (st.occluded ? ": occluded" : "")
-                                                 << (st.occluder_depth > 0 ? ": side occluder" : ""));
-
+    const bool enough = st.samples >= min_samples_;
+    const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
     for (size_t i = 0; i < frame.size(); i++) {

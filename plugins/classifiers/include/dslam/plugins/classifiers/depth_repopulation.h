@@ -67,12 +67,16 @@ class DepthRepopulation : public KeypointClassifier {
   const std::vector<BoxDepthStats>& lastStats() const { return stats_; }
 
  private:
+  cv::Rect2f centerWindow(const cv::Rect2f& box) const;
+  BoxDepthStats boxStats(const Frame& frame, const BoundingBox& bb, int b, const cv::Rect2f& box,
+                         const std::vector<cv::Rect2f>& shared);
+
   std::vector<int> classes_, dynamic_classes_{1}, see_through_classes_;
   double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3, occlusion_span_ = 0.8,
          side_span_ = 0,
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
-  bool exclude_overlap_ = true, overlap_fallback_ = false;
+  bool exclude_overlap_ = true, overlap_fallback_ = false, fallback_skip_others_ = false;
   bool overlap_front_ = true;  ///< overlap_class: front
   double front_margin_ = 0.1;
   enum class Occlusion { Dynamic, All, None } occlusion_ = Occlusion::All;
