@@ -360,6 +360,13 @@ TEST(DepthRepopulation, SharedAreaOfOverlappingBoxesIsIgnored) {
   EXPECT_FLOAT_EQ(without->lastStats()[0].min, 0.8f);  // B leaks into A's statistics
 }
 
+// A DepthRepopulation configured by `yaml` run on `f`: its box statistics.
+static std::vector<BoxDepthStats> repopulate(const std::string& yaml, Frame& f, const Detections& d) {
+  auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
+  rep->classify(f, d, {});
+  return rep->lastStats();
+}
+
 // A backpack's box inside a chair's (held-out shift_s11, docs/changing.md
 // step 15): with exclude_overlap every pixel of it is shared, so it has no
 // statistics of its own and keeps every keypoint in it on the backpack, the
@@ -373,11 +380,7 @@ TEST(DepthRepopulation, OverlapFallbackGivesABoxInsideAnotherItsStatistics) {
   Detections d;
   d.boxes = {box(100, 100, 300, 300, 62), box(200, 250, 60, 80, 27)};
   const std::vector<cv::Point2f> pts = {{230, 290}, {202, 255}};  // on the backpack; the wall in its box
-  auto run = [&](const std::string& yaml, Frame& f) {
-    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
-    rep->classify(f, d, {});
-    return rep->lastStats();
-  };
+  auto run = [&](const std::string& yaml, Frame& f) { return repopulate(yaml, f, d); };
   Frame f = depthFrame(depth, pts);
   const auto off = run("", f);
   ASSERT_EQ(off.size(), 2u);
@@ -417,11 +420,7 @@ TEST(DepthRepopulation, FallbackSkippingOtherObjectsKeepsTheBiggerObjectsSurface
   Detections d;
   d.boxes = {box(100, 100, 300, 300, 62), box(200, 250, 60, 80, 27)};
   const std::vector<cv::Point2f> pts = {{230, 300}, {202, 300}, {230, 255}};  // backpack, wall, seat
-  auto run = [&](const std::string& yaml, Frame& f) {
-    auto rep = makeClassifier<DepthRepopulation>("DepthRepopulation", yaml);
-    rep->classify(f, d, {});
-    return rep->lastStats();
-  };
+  auto run = [&](const std::string& yaml, Frame& f) { return repopulate(yaml, f, d); };
   Frame f = depthFrame(depth, pts);
   const auto plain = run("overlap_fallback: true", f);
   ASSERT_EQ(plain.size(), 2u);
