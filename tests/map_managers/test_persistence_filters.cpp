@@ -883,6 +883,29 @@ MapObject partOfChairMovedWhileLost(const std::string& yaml, int part_class, con
 
 }  // namespace
 
+TEST(ObjectPartLinks, AMergedObjectHandsItsLinksToTheObjectThatTookIt) {
+  ObjectPartLinks links;
+  EXPECT_TRUE(links.link(1, 2));
+  EXPECT_FALSE(links.link(2, 1));  // linked already
+  EXPECT_TRUE(links.link(2, 3));
+  EXPECT_TRUE(links.linked(1, 3));  // through 2
+  EXPECT_FALSE(links.linked(1, 5));
+  links.carry(4, 2);  // 2 merged into 4: 1 and 3 stay linked, through 4
+  EXPECT_TRUE(links.linked(1, 3));
+  EXPECT_TRUE(links.linked(3, 4));
+  EXPECT_FALSE(links.linked(1, 2));
+  EXPECT_EQ(links.size(), 3u);  // 1, 3, 4: 2 is gone
+  links.carry(1, 4);  // into an object it was linked with: no link to itself
+  EXPECT_TRUE(links.linked(1, 3));
+  EXPECT_FALSE(links.linked(1, 4));
+  EXPECT_EQ(links.size(), 2u);
+  links.carry(3, 1);  // the last link between them: nothing left
+  EXPECT_FALSE(links.linked(3, 1));
+  EXPECT_EQ(links.size(), 0u);
+  links.carry(7, 8);  // an object without links: nothing to hand on
+  EXPECT_EQ(links.size(), 0u);
+}
+
 TEST(ObjectPersistenceFilter, DormantPartsOfAnObjectFoundMovedMoveWithIt) {
   // A large object mapped from two sides is two objects of its class,
   // centroids 0.6 m apart (association's threshold is 0.25 m). After the

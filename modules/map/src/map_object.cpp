@@ -405,7 +405,7 @@ size_t dropMissedObjectPoints(std::vector<ObjectCandidate>& candidates,
 }
 
 size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
-                               size_t min_points) {
+                               size_t min_points, std::vector<std::pair<int64_t, int64_t>>* merged) {
   size_t merges = 0;
   for (auto a = objects.begin(); a != objects.end(); ++a) {
     MapObject& A = *a->second;
@@ -431,6 +431,7 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
         A.current_box = B.current_box;
       }
       A.refresh();
+      if (merged) merged->emplace_back(A.id, B.id);
       b = objects.erase(b);
       merges++;
     }

@@ -623,22 +623,44 @@ void ObjectPersistenceFilter::linkParts(const KeyFrame& kf, const std::map<int64
       if (n >= ltda_.min_shared_points) ids.push_back(id);
     for (size_t a = 0; a < ids.size(); a++)
       for (size_t b = a + 1; b < ids.size(); b++)
-        if (part_links_[ids[a]].insert(ids[b]).second) {
-          part_links_[ids[b]].insert(ids[a]);
+        if (part_links_.link(ids[a], ids[b])) {
           DSLAM_LOG(Trace, "objects: keyframe " << kf.id << ": objects " << ids[a] << " and " << ids[b]
                                                 << " covered by one detection (parts of one thing)");
         }
   }
 }
 
-bool ObjectPersistenceFilter::partsLinked(int64_t from, int64_t to) const {
+bool ObjectPartLinks::link(int64_t a, int64_t b) {
+  if (a == b || !links_[a].insert(b).second) return false;
+  links_[b].insert(a);
+  return true;
+}
+
+void ObjectPartLinks::carry(int64_t into, int64_t from) {
+  const auto it = links_.find(from);
+  if (it == links_.end()) return;
+  const std::set<int64_t> links = std::move(it->second);
+  links_.erase(it);
+  for (int64_t x : links) {
+    const auto back = links_.find(x);
+    if (back != links_.end()) back->second.erase(from);
+    if (x != into) {
+      links_[x].insert(into);
+      links_[into].insert(x);
+    } else if (back != links_.end() && back->second.empty()) {
+      links_.erase(back);
+    }
+  }
+}
+
+bool ObjectPartLinks::linked(int64_t from, int64_t to) const {
   std::set<int64_t> reached{from};
   std::vector<int64_t> open{from};
   while (!open.empty()) {
     const int64_t id = open.back();
     open.pop_back();
-    const auto it = part_links_.find(id);
-    if (it == part_links_.end()) continue;
+    const auto it = links_.find(id);
+    if (it == links_.end()) continue;
     for (int64_t next : it->second) {
       if (next == to) return true;
       if (reached.insert(next).second) open.push_back(next);
@@ -725,9 +747,11 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
   }
   // Partial views of one object that association kept apart become one.
-  stats_.merged += mergeOverlappingObjects(objects, [this](const MapObject& o) {
-    return o.active && !o.dormant && o.belief >= belief_threshold_;
-  });
+  std::vector<std::pair<int64_t, int64_t>> merged;
+  stats_.merged += mergeOverlappingObjects(
+      objects, [this](const MapObject& o) { return o.active && !o.dormant && o.belief >= belief_threshold_; }, 5,
+      &merged);
+  for (const auto& [into, from] : merged) part_links_.carry(into, from);
   if (part_links_on_) linkParts(*kf, objects);
   std::vector<const MapObject*> seen_now;  // what this keyframe saw, for re-identification
   for (int64_t id : seen)
@@ -839,7 +863,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
           if (!recent(q) || q.class_id != o.class_id || q.object == o.id) continue;
           const double d = (q.from - o.centroid).norm();
           const bool near = part_radius_ > 0 && d <= part_radius_;
-          if (!near && !(part_links_on_ && partsLinked(q.object, o.id))) continue;
+          if (!near && !(part_links_on_ && part_links_.linked(q.object, o.id))) continue;
           movedAway(&stats_.reidentified_as_part, nullptr,
                     "a part of object " + std::to_string(q.object) + " (found moved " + std::to_string(q.motion.shift) +
                         " m, " + std::to_string(d) + " m from it" + (near ? ")" : "; one detection covered both)"));

@@ -64,6 +64,26 @@ struct PersistenceStats {
   std::string str() const;
 };
 
+/** Links between objects of one class that one detection covered together
+ *  in some keyframe: parts of one thing (ObjectPersistenceFilter's
+ *  reid_part_links). An object merged into another hands its links to it;
+ *  objects of other maps keep theirs (a map merge keeps object ids). */
+class ObjectPartLinks {
+ public:
+  /** Links a and b; false when they were linked already. */
+  bool link(int64_t a, int64_t b);
+  /** Object `from` was merged into `into`: its links become `into`'s. */
+  void carry(int64_t into, int64_t from);
+  /** Whether `to` is reachable from `from` through the links. */
+  bool linked(int64_t from, int64_t to) const;
+  /** Objects with at least one link. */
+  size_t size() const { return links_.size(); }
+  void clear() { links_.clear(); }
+
+ private:
+  std::unordered_map<int64_t, std::set<int64_t>> links_;
+};
+
 class ObjectPersistenceFilter : public FilteringMapManager {
   DEFINE_MRPT_OBJECT(ObjectPersistenceFilter, dslam)
  public:
@@ -178,14 +198,9 @@ class ObjectPersistenceFilter : public FilteringMapManager {
   double prior_radius_ = 2.0;
   double part_radius_ = 1.0;  ///< reid_part_radius
   bool part_links_on_ = true;  ///< reid_part_links
-  /** By object id: the objects of its class that one detection covered
-   *  together with it in some keyframe (parts of one thing; reid_part_links).
-   *  Ids of objects merged or erased since stay, and lead nowhere. */
-  std::unordered_map<int64_t, std::set<int64_t>> part_links_;
+  ObjectPartLinks part_links_;
   /** Records the links of the detections of `kf` (after its association). */
   void linkParts(const KeyFrame& kf, const std::map<int64_t, MapObjectPtr>& objects);
-  /** Whether `to` is reachable from `from` through part_links_. */
-  bool partsLinked(int64_t from, int64_t to) const;
   double centroid_distance_ = 0.25;  ///< reid_centroid_distance
   PersistenceStats stats_;
 };
