@@ -220,7 +220,7 @@ TEST(ObjectPersistenceFilter, BeliefClampBelowInitialBeliefOrThresholdIsAConfigE
       makeFilter<ObjectPersistenceFilter>(yaml, atlas);
       ADD_FAILURE() << yaml << " was accepted";
     } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("'belief_max' (0.6"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("parameter 'belief_max': 0.6"), std::string::npos) << e.what();
     }
   }
   EXPECT_NO_THROW(makeFilter<ObjectPersistenceFilter>("{belief_max: 0.95}", atlas));

@@ -76,15 +76,14 @@ void AdaptiveFeatureCount::configure(const Params& p, const PluginContext& ctx) 
   thresholds_ = p.getDoubleList(tk);
   values_ = p.getDoubleList(vk);
   if (thresholds_.size() != values_.size())
-    throw ConfigError(cls::where(p) + "parameters '" + tk + "' and '" + vk + "' must have the same length (" +
-                      std::to_string(thresholds_.size()) + " vs " + std::to_string(values_.size()) + ")");
+    p.fail(tk, "must have as many entries as '" + vk + "' (" + std::to_string(thresholds_.size()) + " vs " +
+                   std::to_string(values_.size()) + ")");
   for (size_t i = 0; i < thresholds_.size(); i++) {
     if (thresholds_[i] < 0 || thresholds_[i] > 1)
-      throw ConfigError(cls::where(p) + "parameter '" + tk + "': " + std::to_string(thresholds_[i]) +
-                        " is not an area fraction in [0, 1]");
+      p.fail(tk, std::to_string(thresholds_[i]) + " is not an area fraction in [0, 1]");
     if (i > 0 && thresholds_[i] <= thresholds_[i - 1])
-      throw ConfigError(cls::where(p) + "parameter '" + tk + "': thresholds must increase");
-    if (values_[i] < 0) throw ConfigError(cls::where(p) + "parameter '" + vk + "': increments must be >= 0");
+      p.fail(tk, "thresholds must increase");
+    if (values_[i] < 0) p.fail(vk, "increments must be >= 0");
   }
   reset();
 }

@@ -25,17 +25,11 @@ void ensureMeta(Frame& f) {
   if (f.meta.size() != f.keypoints.size()) f.resetMeta();
 }
 
-std::string where(const Params& p) {
-  const std::string s = p.location().str();
-  return s.empty() ? "" : s + ": ";
-}
-
 std::vector<int> cocoIdList(const Params& p, const std::string& key) {
   std::vector<int> out = p.getIntList(key);
   for (int id : out)
     if (!coco::find(id))
-      throw ConfigError(where(p) + "parameter '" + key + "': " + std::to_string(id) +
-                        " is not a COCO category id (person = 1, chair = 62, see dslam/core/coco.h)");
+      p.fail(key, std::to_string(id) + " is not a COCO category id (person = 1, chair = 62, see dslam/core/coco.h)");
   return out;
 }
 
@@ -54,13 +48,13 @@ ClassValues classValues(const Params& p, const std::string& key, bool need_defau
       if (end && *end == '\0' && !k.empty() && coco::find(static_cast<int>(n))) id = static_cast<int>(n);
     }
     if (id < 0)
-      throw ConfigError(where(p) + "parameter '" + key + "': '" + k +
-                        "' is not a COCO class name or id (COCO spelling, e.g. person, chair, \"dining table\"; "
-                        "or 'default')");
+      p.fail(key, "'" + k +
+                      "' is not a COCO class name or id (COCO spelling, e.g. person, chair, \"dining table\"; "
+                      "or 'default')");
     cv.by_class[id] = v;
   }
   if (need_default && !cv.has_default)
-    throw ConfigError(where(p) + "parameter '" + key + "': needs a 'default' entry for unlisted classes");
+    p.fail(key, "needs a 'default' entry for unlisted classes");
   return cv;
 }
 
@@ -249,7 +243,7 @@ RansacParams ransacParams(const Params& p) {
   r.prior_gate = p.getDouble("prior_gate");
   r.prior_iterations = static_cast<int>(p.getInt("prior_iterations"));
   if (r.max_points > 0 && r.max_points < 8)
-    throw ConfigError(where(p) + "parameter 'max_fit_points': at least 8 (or 0 = all)");
+    p.fail("max_fit_points", "at least 8 (or 0 = all)");
   return r;
 }
 

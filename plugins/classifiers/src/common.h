@@ -44,9 +44,6 @@ inline bool contains(const std::vector<int>& v, int x) {
   return false;
 }
 
-/** "file:line: " prefix of a parameter set (may be empty). */
-std::string where(const Params& p);
-
 /** Validated list of COCO ids (ConfigError naming the key otherwise). */
 std::vector<int> cocoIdList(const Params& p, const std::string& key);
 

@@ -99,7 +99,7 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   // 'default' in class_percentile: the unlisted classes' percentile.
   min_percentile_ = pc.has_default ? pc.fallback : p.getDouble("min_percentile");
   auto check = [&](double v) {
-    if (v < 0 || v > 50) throw ConfigError(cls::where(p) + "parameter 'class_percentile': values must lie in [0, 50]");
+    if (v < 0 || v > 50) p.fail("class_percentile", "values must lie in [0, 50]");
   };
   for (const auto& [id, v] : percentile_) check(v);
   check(min_percentile_);  // min_percentile's own range, or the 'default' entry's

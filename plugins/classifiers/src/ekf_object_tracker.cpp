@@ -79,8 +79,8 @@ void EkfObjectTracker::configure(const Params& p, const PluginContext& ctx) {
   speed_thr_ = st.by_class;
   speed_thr_default_ = st.fallback;
   for (const auto& [k, v] : sigma_a_)
-    if (v < 0) throw ConfigError(cls::where(p) + "parameter 'sigma_accel': negative value for class " + std::to_string(k));
-  if (sigma_a_default_ < 0) throw ConfigError(cls::where(p) + "parameter 'sigma_accel': negative default");
+    if (v < 0) p.fail("sigma_accel", "negative value for class " + std::to_string(k));
+  if (sigma_a_default_ < 0) p.fail("sigma_accel", "negative default");
   meas_sigma_ = p.getDouble("measurement_sigma");
   p0_ = p.getDouble("initial_covariance");
   min_static_ = static_cast<int>(p.getInt("min_static_updates"));

@@ -109,8 +109,7 @@ std::vector<int> classFilter(const Params& p, const std::string& key) {
   std::vector<int> v = p.getIntList(key);
   for (int id : v)
     if (!coco::find(id))
-      throw ConfigError(p.location().str() + (p.location().str().empty() ? "" : ": ") + "parameter '" + key +
-                        "': " + std::to_string(id) + " is not a COCO category id (person = 1, see dslam/core/coco.h)");
+      p.fail(key, std::to_string(id) + " is not a COCO category id (person = 1, see dslam/core/coco.h)");
   std::sort(v.begin(), v.end());
   return v;
 }

@@ -49,21 +49,18 @@ void DnnSemanticSegmenter::configure(const Params& p, const PluginContext& ctx) 
   const std::string lf = det::modelFile(p.getString("labels"), "models/enet-cityscapes/enet-classes.txt", "label-names file");
   labels_ = det::readNames(lf);
   lut_.assign(labels_.size(), uint8_t(coco::kNone));
-  const auto where = [&] { return p.location().str() + (p.location().str().empty() ? "" : ": "); };
   for (const auto& [name, v] : p.getDoubleMap("class_map")) {
     size_t k = 0;
     while (k < labels_.size() && labels_[k] != name) k++;
     if (k == labels_.size())
-      throw ConfigError(where() + "parameter 'class_map': '" + name + "' is not a label of " + lf + " (labels: " +
-                        [&] {
-                          std::string s;
-                          for (auto& l : labels_) s += (s.empty() ? "" : ", ") + l;
-                          return s;
-                        }() + ")");
+      p.fail("class_map", "'" + name + "' is not a label of " + lf + " (labels: " + [&] {
+        std::string s;
+        for (auto& l : labels_) s += (s.empty() ? "" : ", ") + l;
+        return s;
+      }() + ")");
     const int id = int(v);
     if (v != std::floor(v) || (id != coco::kNone && !coco::find(id)))
-      throw ConfigError(where() + "parameter 'class_map': '" + name + "': " + std::to_string(v) +
-                        " is not a COCO category id (or 255 = none)");
+      p.fail("class_map", "'" + name + "': " + std::to_string(v) + " is not a COCO category id (or 255 = none)");
     lut_[k] = uint8_t(id);
   }
   input_ = cv::Size(int(p.getInt("input_width")), int(p.getInt("input_height")));
@@ -72,7 +69,7 @@ void DnnSemanticSegmenter::configure(const Params& p, const PluginContext& ctx) 
   boxes_ = p.getBool("boxes");
   min_box_area_ = int(p.getInt("min_box_area"));
   const auto mean = p.getDoubleList("mean");
-  if (!mean.empty() && mean.size() != 3) throw ConfigError(where() + "parameter 'mean': expected 3 values or []");
+  if (!mean.empty() && mean.size() != 3) p.fail("mean", "expected 3 values or []");
   mean_ = mean.empty() ? cv::Scalar() : cv::Scalar(mean[0], mean[1], mean[2]);
   net_ = det::loadNet("segmentation model", model, config);
   net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);

@@ -372,10 +372,9 @@ void ObjectPersistenceFilter::configure(const Params& p, const PluginContext& ct
   belief_threshold_ = p.getDouble("belief_threshold");
   belief_.belief_max = p.getDouble("belief_max");
   if (initial_belief_ > belief_.belief_max || belief_threshold_ >= belief_.belief_max) {
-    const std::string at = p.location().str();
-    throw ConfigError((at.empty() ? "" : at + ": ") + "parameter 'belief_max' (" + std::to_string(belief_.belief_max) +
-                      ") must be at least initial_belief (" + std::to_string(initial_belief_) +
-                      ") and above belief_threshold (" + std::to_string(belief_threshold_) + ")");
+    p.fail("belief_max", std::to_string(belief_.belief_max) + " must be at least initial_belief (" +
+                             std::to_string(initial_belief_) + ") and above belief_threshold (" +
+                             std::to_string(belief_threshold_) + ")");
   }
   belief_.sigma_m = p.getDouble("sigma");
   belief_.min_sigma_m = p.getDouble("min_sigma");

@@ -107,6 +107,9 @@ class Params {
   void setString(const std::string& key, const std::string& value);
 
   const SourceLocation& location() const { return where_; }
+  /** Throws ConfigError "file:line: key 'path': parameter 'key': what"
+   *  (for checks a plug-in makes beyond the parameter specs). */
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
   std::string toYamlText() const;
   const mrpt::containers::yaml& asYaml() const;
 
@@ -115,7 +118,6 @@ class Params {
   SourceLocation where_;
   std::set<std::string> given_;
   std::vector<std::string> order_;  ///< declaration order (spec order) for printing
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
 };
 
 }  // namespace dslam
