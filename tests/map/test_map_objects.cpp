@@ -260,11 +260,9 @@ TEST(MapObject, OverlappingPartsOfOneObjectMerge) {
   associateObjects(objects, {candidate(67, b), candidate(67, c), candidate(62, d)}, 2, 2.0, p, next);
   ASSERT_EQ(objects.size(), 4u);
   objects.at(12)->active = false;  // not eligible: left alone even where it overlaps
-  std::vector<std::pair<int64_t, int64_t>> pairs;
-  const size_t merged = mergeOverlappingObjects(objects, [](const MapObject& o) { return o.active; }, 5, &pairs);
-  EXPECT_EQ(merged, 1u);
-  ASSERT_EQ(pairs.size(), 1u);
-  EXPECT_EQ(pairs[0], std::make_pair(int64_t{10}, int64_t{11}));  // (kept, erased)
+  const auto merged = mergeOverlappingObjects(objects, [](const MapObject& o) { return o.active; });
+  ASSERT_EQ(merged.size(), 1u);
+  EXPECT_EQ(merged[0], std::make_pair(int64_t{10}, int64_t{11}));  // (kept, erased)
   ASSERT_EQ(objects.size(), 3u);
   EXPECT_EQ(objects.at(10)->numPoints(), 50u);  // the older id keeps both
   EXPECT_EQ(objects.at(10)->sightings, 2);

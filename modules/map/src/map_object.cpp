@@ -404,9 +404,10 @@ size_t dropMissedObjectPoints(std::vector<ObjectCandidate>& candidates,
   return dropped;
 }
 
-size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
-                               size_t min_points, std::vector<std::pair<int64_t, int64_t>>* merged) {
-  size_t merges = 0;
+std::vector<std::pair<int64_t, int64_t>> mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects,
+                                                                 const std::function<bool(const MapObject&)>& eligible,
+                                                                 size_t min_points) {
+  std::vector<std::pair<int64_t, int64_t>> merges;
   for (auto a = objects.begin(); a != objects.end(); ++a) {
     MapObject& A = *a->second;
     if (A.numPoints() < min_points || !eligible(A)) continue;
@@ -431,9 +432,8 @@ size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const s
         A.current_box = B.current_box;
       }
       A.refresh();
-      if (merged) merged->emplace_back(A.id, B.id);
+      merges.emplace_back(A.id, B.id);
       b = objects.erase(b);
-      merges++;
     }
   }
   return merges;

@@ -174,9 +174,13 @@ float keypointDepth(const Frame& frame, size_t i) {
   return 0.f;
 }
 
+inline bool inRect(const cv::Rect2f& r, float x, float y) {
+  return x >= r.x && y >= r.y && x < r.x + r.width && y < r.y + r.height;
+}
+
 bool inAny(const std::vector<cv::Rect2f>& rects, float x, float y) {
   for (const auto& s : rects)
-    if (x >= s.x && y >= s.y && x < s.x + s.width && y < s.y + s.height) return true;
+    if (inRect(s, x, y)) return true;
   return false;
 }
 
@@ -223,15 +227,27 @@ void forBoxDepths(const Frame& frame, const cv::Rect2f& box, const std::vector<c
 /** Depth samples of a box (every `stride`-th pixel, outside the `shared`
  *  overlaps) into `buf` and of its central window (every pixel, also outside
  *  the overlaps: a labelled object in front is no unlabelled occluder) into
- *  `cbuf`; without a depth image, the depths of the keypoints inside. */
+ *  `cbuf`; without a depth image, the depths of the keypoints inside. Only
+ *  the samples keep(x, y, depth) accepts. */
+template <class Keep>
+void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f& center,
+                     const std::vector<cv::Rect2f>& shared, int stride, std::vector<float>& buf,
+                     std::vector<float>& cbuf, Keep&& keep) {
+  buf.clear();
+  cbuf.clear();
+  forBoxDepths(frame, box, shared, stride, [&](float x, float y, float d) {
+    if (keep(x, y, d)) buf.push_back(d);
+  });
+  // Central window: every pixel (or its keypoints).
+  forBoxDepths(frame, center, shared, 1, [&](float x, float y, float d) {
+    if (keep(x, y, d)) cbuf.push_back(d);
+  });
+}
+
 void sampleBoxDepths(const Frame& frame, const cv::Rect2f& box, const cv::Rect2f& center,
                      const std::vector<cv::Rect2f>& shared, int stride, std::vector<float>& buf,
                      std::vector<float>& cbuf) {
-  buf.clear();
-  cbuf.clear();
-  forBoxDepths(frame, box, shared, stride, [&](float, float, float d) { buf.push_back(d); });
-  // Central window: every pixel (or its keypoints).
-  forBoxDepths(frame, center, shared, 1, [&](float, float, float d) { cbuf.push_back(d); });
+  sampleBoxDepths(frame, box, center, shared, stride, buf, cbuf, [](float, float, float) { return true; });
 }
 
 /** Extent of the box's near layer (depth in (0, max_depth]) as fractions
@@ -317,7 +333,6 @@ BoxDepthStats DepthRepopulation::boxStats(const Frame& frame, const BoundingBox&
                                                << "), near layer " << st.near_span_x << " x " << st.near_span_y
                                                << (st.occluded ? ": occluded" : "")
                                                << (st.occluder_depth > 0 ? ": side occluder" : ""));
-
   return st;
 }
 
@@ -418,20 +433,10 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
       if (x.width > 0 && x.height > 0)
         layers.push_back({x, so.object_depth - static_cast<float>(front_margin_), so.object_depth + so.margin});
     }
-    auto keep = [&](float x, float y, float d) {
+    sampleBoxDepths(frame, box, centerWindow(box), {}, stride_, buf_, cbuf_, [&](float x, float y, float d) {
       for (const Layer& l : layers)
-        if (x >= l.rect.x && y >= l.rect.y && x < l.rect.x + l.rect.width && y < l.rect.y + l.rect.height &&
-            d >= l.from && d <= l.to)
-          return false;
+        if (inRect(l.rect, x, y) && d >= l.from && d <= l.to) return false;
       return true;
-    };
-    buf_.clear();
-    cbuf_.clear();
-    forBoxDepths(frame, box, {}, stride_, [&](float x, float y, float d) {
-      if (keep(x, y, d)) buf_.push_back(d);
-    });
-    forBoxDepths(frame, centerWindow(box), {}, 1, [&](float x, float y, float d) {
-      if (keep(x, y, d)) cbuf_.push_back(d);
     });
     st_of[k] = boxStats(frame, det.boxes[sel[k]], sel[k], box, {});
     done[k] = 1;

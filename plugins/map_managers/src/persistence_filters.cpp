@@ -746,10 +746,10 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     }
   }
   // Partial views of one object that association kept apart become one.
-  std::vector<std::pair<int64_t, int64_t>> merged;
-  stats_.merged += mergeOverlappingObjects(
-      objects, [this](const MapObject& o) { return o.active && !o.dormant && o.belief >= belief_threshold_; }, 5,
-      &merged);
+  const auto merged = mergeOverlappingObjects(objects, [this](const MapObject& o) {
+    return o.active && !o.dormant && o.belief >= belief_threshold_;
+  });
+  stats_.merged += static_cast<int64_t>(merged.size());
   for (const auto& [into, from] : merged) part_links_.carry(into, from);
   if (part_links_on_) linkParts(*kf, objects);
   std::vector<const MapObject*> seen_now;  // what this keyframe saw, for re-identification

@@ -210,11 +210,11 @@ std::vector<LtdaMatch> associateObjects(std::map<int64_t, MapObjectPtr>& objects
 /** Merges objects of one class that are one object seen in parts: the
  *  centroid of one inside the other's 3D box (both `eligible`, both with
  *  min_points). The older object (smaller id) takes the points, sightings
- *  and times of the newer one, which is erased. Returns the merges;
- *  `merged`, when given, gets one (kept id, erased id) pair per merge, in
- *  order. */
-size_t mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects, const std::function<bool(const MapObject&)>& eligible,
-                               size_t min_points = 5, std::vector<std::pair<int64_t, int64_t>>* merged = nullptr);
+ *  and times of the newer one, which is erased. Returns the merges, one
+ *  (kept id, erased id) pair each, in order. */
+std::vector<std::pair<int64_t, int64_t>> mergeOverlappingObjects(std::map<int64_t, MapObjectPtr>& objects,
+                                                                 const std::function<bool(const MapObject&)>& eligible,
+                                                                 size_t min_points = 5);
 
 /** Re-identification of a moved object (ours, beyond Changing-SLAM). */
 struct ReidParams {
