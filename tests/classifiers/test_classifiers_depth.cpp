@@ -452,6 +452,76 @@ TEST(DepthRepopulation, FallbackSkippingOtherObjectsKeepsTheBiggerObjectsSurface
   EXPECT_EQ(h.meta[1].class_id, 27);  // the wall too, as without the fallback
 }
 
+// A backpack standing on the floor (pinhole, f = 525, camera 0.8 m above a
+// level floor: the floor's depth at row v is 420 / (v - 240) m; a wall at
+// 5 m above the horizon's far part). Its box reaches below its foot, as a
+// detector's box does: the floor in front of and beside the backpack lies
+// within the depth margin of the box's nearest depth and is put on the
+// backpack. support_check all: the floor continues as one plane out of the
+// box, so its keypoints are Static; the backpack's face, also the point 8 px
+// above its foot and the points of a box cut 10 px inside the backpack (the
+// face ends beyond that box's edge within support_extension), stays the
+// backpack's.
+TEST(DepthRepopulation, SupportCheckTakesTheFloorAtAnObjectsFootOffIt) {
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(5.0f));
+  for (int v = 325; v < 480; v++) depth.row(v).setTo(420.0f / static_cast<float>(v - 240));
+  depth(cv::Rect(284, 314, 74, 94)).setTo(2.5f);  // the backpack: rows 314-407, foot at 408 (2.5 m)
+  const std::vector<cv::Point2f> pts = {
+      {320, 350}, {300, 400},  // on the backpack, the second 8 px above its foot
+      {281, 400}, {320, 412},  // the floor beside it (2.63 m) and in front of it (2.44 m)
+      {340, 330}};             // the backpack again, for the box cut inside it
+  Detections d;
+  d.boxes = {box(278, 308, 85, 106, 27)};
+  auto run = [&](const std::string& yaml, const Detections& det) {
+    Frame f = depthFrame(depth, pts);
+    repopulate(yaml, f, det);
+    return f;
+  };
+  const Frame off = run("", d);
+  for (int i : {0, 1, 2, 3, 4}) EXPECT_EQ(off.meta[i].label, KpLabel::Movable) << i;  // the floor too
+  const Frame on = run("support_check: all", d);
+  for (int i : {0, 1, 4}) {
+    EXPECT_EQ(on.meta[i].label, KpLabel::Movable) << i;
+    EXPECT_EQ(on.meta[i].class_id, 27) << i;
+  }
+  for (int i : {2, 3}) {
+    EXPECT_EQ(on.meta[i].label, KpLabel::Static) << i;
+    EXPECT_EQ(on.meta[i].reason, KpReason::BoxBackground) << i;
+    EXPECT_EQ(on.meta[i].class_id, -1) << i;
+  }
+  // A box 10 px inside the backpack on every side: its face continues out
+  // of the box, but ends before support_extension (25 % of the box) does.
+  Detections inner;
+  inner.boxes = {box(294, 324, 54, 74, 27)};
+  const Frame cut = run("support_check: all", inner);
+  for (int i : {0, 4}) EXPECT_EQ(cut.meta[i].label, KpLabel::Movable) << i;
+  // With an extension shorter than the cut, the face is taken for a support.
+  const Frame short_ext = run("support_check: all\nsupport_extension: 0.1\nsupport_min_samples: 2", inner);
+  for (int i : {0, 4}) EXPECT_EQ(short_ext.meta[i].label, KpLabel::Static) << i;
+  // no_statistics: only a box without depth samples of its own is checked.
+  // Alone, the backpack's box has its statistics: the floor stays on it.
+  const Frame alone = run("support_check: no_statistics", d);
+  for (int i : {2, 3}) EXPECT_EQ(alone.meta[i].label, KpLabel::Movable) << i;
+  // Inside a chair's box (every pixel shared) it has none, and every
+  // keypoint in it would be the backpack's whatever its depth: the floor is
+  // taken off it, the backpack's face stays.
+  Detections in_chair;
+  in_chair.boxes = {box(200, 250, 240, 220, 62), box(278, 308, 85, 106, 27)};
+  const Frame none = run("", in_chair);
+  for (int i : {2, 3}) EXPECT_EQ(none.meta[i].class_id, 27) << i;
+  const Frame inside = run("support_check: no_statistics", in_chair);
+  for (int i : {0, 1, 4}) EXPECT_EQ(inside.meta[i].class_id, 27) << i;
+  for (int i : {2, 3}) {
+    EXPECT_EQ(inside.meta[i].label, KpLabel::Static) << i;
+    EXPECT_EQ(inside.meta[i].class_id, -1) << i;
+  }
+  // People (dynamic_classes) are not checked: the floor at their feet stays dropped.
+  Detections person;
+  person.boxes = {box(278, 308, 85, 106, 1)};
+  const Frame p = run("support_check: all", person);
+  EXPECT_EQ(p.meta[3].label, KpLabel::Dynamic);
+}
+
 // A plant (COCO 64) in front of a desk (67, listed first): keypoints on the
 // plant inside both boxes are the plant's (overlap_class: front), not the
 // desk's as with overlap_class: first; the desk seen beside the plant,

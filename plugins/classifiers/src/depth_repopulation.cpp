@@ -80,6 +80,25 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "(from front_margin in front of to its depth margin behind that box's object depth) stay out, so the "
              "small box's statistics are its own object and what is around it, not the bigger object's surface "
              "(ours; false = every shared pixel back in; docs/changing.md step 16)"),
+      P_enum("support_check", "off", {"off", "no_statistics", "all"},
+             "a keypoint put on a box's object (not of dynamic_classes) whose surface continues as one plane out of "
+             "the box (along its row or column, to support_extension of the box size beyond the edge) lies on what "
+             "the object stands on or against (the floor at its foot, a wall, a table top): Static, not on the "
+             "object. no_statistics = only in boxes with fewer than min_samples depth samples of their own (a box "
+             "inside another, whose keypoints are otherwise all put on its object whatever their depth); all = in "
+             "every box (ours; off = as Changing-SLAM; docs/changing.md step 17)"),
+      P_double("support_extension", 0.25,
+               "support_check: how far beyond the box edge the surface must continue, fraction of the box width "
+               "(rows) or height (columns); more than the detector's box jitter, so that an object surface cut by "
+               "a box too small ends within it",
+               0.01, 10),
+      P_double("support_tolerance", 0.004,
+               "support_check: largest deviation of a depth sample (the mean inverse depth of three pixels across "
+               "the walk) from the plane, in inverse depth (1/m; a plane's inverse depth is affine in the pixel "
+               "coordinates; 0.004 = 2.5 cm at 2.5 m, about 5 sigma of a Kinect's noise of 1.425e-3 z^2; a floor "
+               "seen from 1.2 m, f = 525 px, turning into an upright face is told apart within 3 px)",
+               1e-5, 10),
+      P_int("support_min_samples", 4, "support_check: valid depth samples beyond the box edge needed", 2, 10000),
       P_int("pixel_stride", 2, "sample every n-th depth pixel in x and y (speed; 1 = every pixel)", 1, 64),
       P_int("min_samples", 10, "fewer valid depth samples in a box: keypoints of the box stay on the object", 1,
             1000000),
@@ -117,6 +136,11 @@ void DepthRepopulation::configure(const Params& p, const PluginContext& ctx) {
   const std::string oc = p.getString("occlusion_check");
   occlusion_ = oc == "dynamic" ? Occlusion::Dynamic : oc == "none" ? Occlusion::None : Occlusion::All;
   stride_ = static_cast<int>(p.getInt("pixel_stride"));
+  const std::string sc = p.getString("support_check");
+  support_ = sc == "all" ? Support::All : sc == "no_statistics" ? Support::NoStatistics : Support::Off;
+  support_extension_ = p.getDouble("support_extension");
+  support_tolerance_ = p.getDouble("support_tolerance");
+  support_min_samples_ = static_cast<int>(p.getInt("support_min_samples"));
   min_samples_ = static_cast<int>(p.getInt("min_samples"));
 }
 
@@ -274,6 +298,70 @@ void nearLayerSpan(const Frame& frame, const cv::Rect2f& box, const std::vector<
   };
   span_x = box.width > 0 ? extent(xs) / box.width : 0.f;
   span_y = box.height > 0 ? extent(ys) / box.height : 0.f;
+}
+
+/** Whether the surface at (x0, y0), depth d0, continues as one plane out of
+ *  `box` along its row or its column: in one of the four directions, the
+ *  inverse depths (each the mean of the valid pixels of three across the
+ *  walk) from `ext` of the box size beyond the box edge back to the
+ *  point lie on one line in inverse depth (a plane's inverse depth is affine
+ *  in the pixel coordinates of a pinhole image) within `tol`. The line is
+ *  fitted to the samples beyond the edge (at least `min_out`, all on it),
+ *  then grown inwards sample by sample, each checked against it before it
+ *  joins. A direction whose image ends within half of `ext` beyond the edge
+ *  is no evidence. */
+bool continuesOutOfBox(const cv::Mat& depth, const cv::Rect2f& box, float x0, float y0, float d0, int stride,
+                       double ext, double tol, int min_out, std::vector<cv::Vec2d>& samples) {
+  const int dirs[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (const auto& dir : dirs) {
+    const int dx = dir[0], dy = dir[1];
+    const double edge = dx > 0   ? box.x + box.width - x0
+                        : dx < 0 ? x0 - box.x
+                        : dy > 0 ? box.y + box.height - y0
+                                 : y0 - box.y;
+    const double far = edge + ext * (dx != 0 ? box.width : box.height);
+    // Samples (t, 1/depth), t = pixels from the point, farthest first.
+    samples.clear();
+    int t_end = 0;  // last position inside the image
+    for (int t = stride; t <= far; t += stride) {
+      const int x = static_cast<int>(std::lround(x0 + dx * t)), y = static_cast<int>(std::lround(y0 + dy * t));
+      if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) break;
+      t_end = t;
+      // Inverse depth averaged over the three pixels across the walk.
+      double sum = 0;
+      int cnt = 0;
+      for (int o = -1; o <= 1; o++) {
+        const int xx = x + dy * o, yy = y + dx * o;
+        if (xx < 0 || yy < 0 || xx >= depth.cols || yy >= depth.rows) continue;
+        const float d = depth.at<float>(yy, xx);
+        if (validDepth(d)) sum += 1.0 / d, cnt++;
+      }
+      if (cnt > 0) samples.push_back({static_cast<double>(t), sum / cnt});
+    }
+    if (t_end - edge < 0.5 * (far - edge)) continue;  // the image ends within half the extension
+    std::reverse(samples.begin(), samples.end());
+    // Least-squares line v = a + b t over the accepted samples.
+    double n = 0, st = 0, sv = 0, stt = 0, stv = 0;
+    auto add = [&](const cv::Vec2d& s) {
+      n += 1, st += s[0], sv += s[1], stt += s[0] * s[0], stv += s[0] * s[1];
+    };
+    auto predict = [&](double t) {
+      const double den = n * stt - st * st;
+      const double b = den > 1e-12 ? (n * stv - st * sv) / den : 0.0;
+      return (sv - b * st) / n + b * t;
+    };
+    size_t k = 0;
+    for (; k < samples.size() && samples[k][0] > edge; k++) add(samples[k]);
+    if (n < min_out) continue;
+    bool on = true;
+    for (size_t j = 0; j < k && on; j++) on = std::abs(samples[j][1] - predict(samples[j][0])) <= tol;
+    for (; k < samples.size() && on; k++) {
+      on = std::abs(samples[k][1] - predict(samples[k][0])) <= tol;
+      add(samples[k]);
+    }
+    if (on && std::abs(1.0 / d0 - predict(0)) <= tol) return true;
+  }
+  return false;
 }
 
 }  // namespace
@@ -453,6 +541,8 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
+    const bool check_support = !dyn_class && !depth.empty() &&
+                               (support_ == Support::All || (support_ == Support::NoStatistics && !enough));
     for (size_t i = 0; i < frame.size(); i++) {
       if (!cls::inBox(frame.keypoints[i].pt, box)) continue;
       if (st.occluded) {
@@ -464,11 +554,24 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
         decide(i, KpLabel::Dynamic, KpReason::Occluded, bb.class_id);  // on the occluder at the side
         continue;
       }
-      if (enough && validDepth(d) && d > st.object_depth + st.margin)
-        decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // behind: not on the class
-      else
+      const bool behind = enough && validDepth(d) && d > st.object_depth + st.margin;
+      const bool support = !behind && check_support && validDepth(d) &&
+                           continuesOutOfBox(depth, box, frame.keypoints[i].pt.x, frame.keypoints[i].pt.y, d,
+                                             stride_, support_extension_, support_tolerance_,
+                                             support_min_samples_, walk_);
+      if (behind || support) {
+        decide(i, KpLabel::Static, KpReason::BoxBackground, -2 - bb.class_id);  // not on the class
+        stats_.back().support_points += support;
+      } else {
         decide(i, on_label, on_reason, bb.class_id, enough && validDepth(d) && d < st.object_depth - front_margin_);
+        stats_.back().object_points++;
+      }
     }
+    if (check_support)
+      DSLAM_LOG(Trace, "DepthRepopulation frame " << frame.index() << " box class " << bb.class_id
+                                                   << ": support check: " << stats_.back().support_points << " of "
+                                                   << stats_.back().support_points + stats_.back().object_points
+                                                   << " keypoints on the object continue out of the box");
   }
 
   for (size_t i = 0; i < frame.size(); i++) {

@@ -28,6 +28,8 @@ struct BoxDepthStats {
    *  nearest surface), the object depth then being the centre's surface
    *  (0 = no side occluder). */
   float occluder_depth = 0;
+  int object_points = 0;   ///< keypoints labelled on the box's object (by this box)
+  int support_points = 0;  ///< support_check: keypoints taken off the object, on a surface continuing out of the box
 };
 
 /** Keypoints inside boxes are split by depth (Changing-SLAM, Sec. 4.1):
@@ -50,6 +52,13 @@ struct BoxDepthStats {
  *  band across the box, the legs too thin to count. The test applies to every
  *  box by default; `occlusion_check: dynamic` limits it to boxes of
  *  `dynamic_classes`.
+ *
+ *  Support surfaces (`support_check`, off by default; `no_statistics`: in
+ *  boxes without depth statistics of their own only): a keypoint put on a
+ *  box's object (not of `dynamic_classes`) whose surface continues as one
+ *  plane out of the box, along its row or column, is on what the object
+ *  stands on or against (the floor at its foot, a wall, a table top), not
+ *  on the object: Static (BoxBackground).
  *
  *  Re-labelling: this classifier decides keypoints inside its boxes, also
  *  returning to Static keypoints an earlier BoxFilter dropped (reason
@@ -76,6 +85,9 @@ class DepthRepopulation : public KeypointClassifier {
          side_span_ = 0,
          overlap_dilation_ = 0.1;
   int stride_ = 2, min_samples_ = 10;
+  enum class Support { Off, NoStatistics, All } support_ = Support::Off;  ///< support_check
+  double support_extension_ = 0.25, support_tolerance_ = 0.004;
+  int support_min_samples_ = 4;
   bool exclude_overlap_ = true, overlap_fallback_ = false, fallback_skip_others_ = false;
   bool overlap_front_ = true;  ///< overlap_class: front
   double front_margin_ = 0.1;
@@ -84,6 +96,7 @@ class DepthRepopulation : public KeypointClassifier {
   double margin_default_ = 0.5;
   std::vector<BoxDepthStats> stats_;
   std::vector<float> buf_, cbuf_, xs_, ys_;
+  std::vector<cv::Vec2d> walk_;  ///< support_check samples
 };
 
 }  // namespace dslam
