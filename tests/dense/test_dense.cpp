@@ -526,3 +526,21 @@ TEST(DenseEval, RefusesAMapOrAScenarioOfAnotherScene) {
   EXPECT_NE(scenarioError(d + "/renamed.yaml").find("its objects differ from the scene's"), std::string::npos)
       << scenarioError(d + "/renamed.yaml");
 }
+
+// Values the specs cannot check name their parameter (Params::fail).
+TEST(DenseMapParams, ValuesTheSpecsCannotCheckNameTheirParameter) {
+  auto message = [](const std::string& yaml) {
+    try {
+      DenseMapParams::fromParams(Params::resolve(DenseMapParams::specs(), yaml));
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("{classes: [1, 300]}"),
+            "parameter 'classes': 300 is not a COCO category id (person = 1, see dslam/core/coco.h)");
+  EXPECT_EQ(message("{num_disparities: 40}"), "parameter 'num_disparities': 40 is not a multiple of 16");
+  EXPECT_EQ(message("{block_size: 4}"), "parameter 'block_size': 4 is not odd");
+  EXPECT_EQ(message("{min_range: 5, max_range: 4}"), "parameter 'min_range': must be smaller than max_range");
+  EXPECT_EQ(message("{}"), "no error");
+}

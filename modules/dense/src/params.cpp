@@ -2,7 +2,6 @@
 
 #include "dslam/config/pipeline.h"
 #include "dslam/core/coco.h"
-#include "dslam/core/error.h"
 #include "dslam/dense/dense_map.h"
 
 namespace dslam::dense {
@@ -88,8 +87,7 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   d.classes = p.getIntList("classes");
   for (int id : d.classes)
     if (!coco::find(id))
-      throw ConfigError(p.location().str() + ": dense_map.classes: " + std::to_string(id) +
-                        " is not a COCO category id (person = 1, see dslam/core/coco.h)");
+      p.fail("classes", std::to_string(id) + " is not a COCO category id (person = 1, see dslam/core/coco.h)");
   d.follow_classifiers = p.getBool("follow_classifiers");
   d.min_dynamic_fraction = p.getDouble("min_dynamic_fraction");
   d.min_dynamic_keypoints = static_cast<int>(p.getInt("min_dynamic_keypoints"));
@@ -104,19 +102,18 @@ DenseMapParams DenseMapParams::fromParams(const Params& p) {
   d.max_queued_keyframes = static_cast<int>(p.getInt("max_queued_keyframes"));
   d.num_disparities = static_cast<int>(p.getInt("num_disparities"));
   if (d.num_disparities % 16 != 0)
-    throw ConfigError(p.location().str() + ": dense_map.num_disparities: " + std::to_string(d.num_disparities) +
-                      " is not a multiple of 16");
+    p.fail("num_disparities", std::to_string(d.num_disparities) + " is not a multiple of 16");
   d.stereo_min_depth = p.getDouble("stereo_min_depth");
   d.block_size = static_cast<int>(p.getInt("block_size"));
   if (d.block_size % 2 == 0)
-    throw ConfigError(p.location().str() + ": dense_map.block_size: " + std::to_string(d.block_size) + " is not odd");
+    p.fail("block_size", std::to_string(d.block_size) + " is not odd");
   d.uniqueness = static_cast<int>(p.getInt("uniqueness"));
   d.refine_window = static_cast<int>(p.getInt("refine_window"));
   d.view_size = static_cast<int>(p.getInt("view_size"));
   d.view_clip = p.getDouble("view_clip");
   d.side_half_width = p.getDouble("side_half_width");
   if (d.min_range >= d.max_range)
-    throw ConfigError(p.location().str() + ": dense_map.min_range must be smaller than max_range");
+    p.fail("min_range", "must be smaller than max_range");
   return d;
 }
 

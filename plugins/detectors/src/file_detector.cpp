@@ -213,8 +213,7 @@ LabelSource::Options labelSourceOptions(const Params& p, const PluginContext& ct
   std::string root = p.getString("dir");
   if (root.empty()) root = ctx.dataset_root;
   if (root.empty())
-    throw ConfigError(p.location().str() + (p.location().str().empty() ? "" : ": ") + who +
-                      ": parameter 'dir' is empty and there is no dataset folder to read labels from");
+    p.fail("dir", "empty, and " + who + " has no dataset folder to read labels from");
   LabelSource::Options o;
   o.root = root;
   o.boxes_dir = p.getString("boxes_dir");
