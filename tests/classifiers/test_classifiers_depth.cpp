@@ -515,6 +515,24 @@ TEST(DepthRepopulation, SupportCheckTakesTheFloorAtAnObjectsFootOffIt) {
     EXPECT_EQ(inside.meta[i].label, KpLabel::Static) << i;
     EXPECT_EQ(inside.meta[i].class_id, -1) << i;
   }
+  // The overlap fallback gives that box statistics of the shared pixels,
+  // not of its own: the floor is within the depth margin of the box's
+  // nearest depth and stays the backpack's, unless no_statistics checks it.
+  {
+    Frame fb = depthFrame(depth, pts);
+    const auto st = repopulate("overlap_fallback: true", fb, in_chair);
+    ASSERT_EQ(st.size(), 2u);
+    EXPECT_GE(st[1].samples, 10);
+    EXPECT_EQ(st[1].own_samples, 0);
+    EXPECT_EQ(st[0].own_samples, st[0].samples);
+    for (int i : {0, 1, 2, 3, 4}) EXPECT_EQ(fb.meta[i].class_id, 27) << i;
+  }
+  const Frame fb_checked = run("overlap_fallback: true\nsupport_check: no_statistics", in_chair);
+  for (int i : {0, 1, 4}) EXPECT_EQ(fb_checked.meta[i].class_id, 27) << i;
+  for (int i : {2, 3}) {
+    EXPECT_EQ(fb_checked.meta[i].label, KpLabel::Static) << i;
+    EXPECT_EQ(fb_checked.meta[i].class_id, -1) << i;
+  }
   // People (dynamic_classes) are not checked: the floor at their feet stays dropped.
   Detections person;
   person.boxes = {box(278, 308, 85, 106, 1)};

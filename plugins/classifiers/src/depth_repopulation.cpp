@@ -85,7 +85,8 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "the box (along its row or column, to support_extension of the box size beyond the edge) lies on what "
              "the object stands on or against (the floor at its foot, a wall, a table top): Static, not on the "
              "object. no_statistics = only in boxes with fewer than min_samples depth samples of their own (a box "
-             "inside another, whose keypoints are otherwise all put on its object whatever their depth); all = in "
+             "inside another, whose keypoints are otherwise all put on its object whatever their depth, or judged by "
+             "the shared pixels overlap_fallback took back); all = in "
              "every box (ours; off = as Changing-SLAM; docs/changing.md step 17)"),
       P_double("support_extension", 0.25,
                "support_check: how far beyond the box edge the surface must continue, fraction of the box width "
@@ -493,8 +494,10 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
           if (x.width > 0 && x.height > 0) shared.push_back(x);
         }
     sampleBoxDepths(frame, box, centerWindow(box), shared, stride_, buf_, cbuf_);
-    if (overlap_fallback_ && !shared.empty() && static_cast<int>(buf_.size()) < min_samples_) {
+    const int own = static_cast<int>(buf_.size());
+    if (overlap_fallback_ && !shared.empty() && own < min_samples_) {
       if (fallback_skip_others_) {
+        st_of[k].own_samples = own;
         deferred.push_back(k);
         continue;
       }
@@ -502,6 +505,7 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
       sampleBoxDepths(frame, box, centerWindow(box), shared, stride_, buf_, cbuf_);
     }
     st_of[k] = boxStats(frame, det.boxes[b], b, box, shared);
+    st_of[k].own_samples = own;
     done[k] = 1;
   }
   for (size_t k : deferred) {
@@ -526,7 +530,9 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
         if (inRect(l.rect, x, y) && d >= l.from && d <= l.to) return false;
       return true;
     });
+    const int own = st_of[k].own_samples;
     st_of[k] = boxStats(frame, det.boxes[sel[k]], sel[k], box, {});
+    st_of[k].own_samples = own;
     done[k] = 1;
   }
 
@@ -541,8 +547,11 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     const bool dyn_class = cls::contains(dynamic_classes_, bb.class_id);
     const KpLabel on_label = dyn_class ? KpLabel::Dynamic : KpLabel::Movable;
     const KpReason on_reason = dyn_class ? KpReason::InDynamicBox : KpReason::OnObject;
-    const bool check_support = !dyn_class && !depth.empty() &&
-                               (support_ == Support::All || (support_ == Support::NoStatistics && !enough));
+    // no_statistics: the boxes short of depth samples of their own, judged
+    // by no statistics or by the overlap fallback's shared pixels.
+    const bool check_support =
+        !dyn_class && !depth.empty() &&
+        (support_ == Support::All || (support_ == Support::NoStatistics && st.own_samples < min_samples_));
     for (size_t i = 0; i < frame.size(); i++) {
       if (!cls::inBox(frame.keypoints[i].pt, box)) continue;
       if (st.occluded) {

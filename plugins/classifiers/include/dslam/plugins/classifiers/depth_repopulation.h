@@ -15,6 +15,10 @@ struct BoxDepthStats {
   int box = -1;          ///< index in Detections::boxes
   int class_id = -1;
   int samples = 0;       ///< valid depth samples used
+  /** valid depth samples of the box's own (outside other boxes; with
+   *  exclude_overlap smaller than `samples` when the overlap fallback took
+   *  the shared pixels back) */
+  int own_samples = 0;
   float min = 0, max = 0, mean = 0, median = 0, stddev = 0;
   float object_depth = 0;  ///< min (or the `min_percentile` percentile)
   float center_depth = 0;  ///< median over the central window (0 = no valid sample)
