@@ -86,8 +86,8 @@ std::vector<ParamSpec> DepthRepopulation::paramSpecs() const {
              "the object stands on or against (the floor at its foot, a wall, a table top): Static, not on the "
              "object. no_statistics = only in boxes with fewer than min_samples depth samples of their own (a box "
              "inside another, whose keypoints are otherwise all put on its object whatever their depth, or judged by "
-             "the shared pixels overlap_fallback took back); all = in "
-             "every box (ours; off = as Changing-SLAM; docs/changing.md step 17)"),
+             "the shared pixels overlap_fallback took back); all = in every box (ours; off = as Changing-SLAM; "
+             "docs/changing.md steps 17 and 18)"),
       P_double("support_extension", 0.25,
                "support_check: how far beyond the box edge the surface must continue, fraction of the box width "
                "(rows) or height (columns); more than the detector's box jitter, so that an object surface cut by "
