@@ -436,6 +436,8 @@ TEST(DepthRepopulation, FallbackSkippingOtherObjectsKeepsTheBiggerObjectsSurface
   EXPECT_FLOAT_EQ(skip[0].object_depth, 2.0f);
   EXPECT_EQ(skip[1].box, 1);
   EXPECT_GE(skip[1].samples, 10);
+  EXPECT_EQ(skip[1].own_samples, 0);  // no pixel of its own: support_check no_statistics would check it
+  EXPECT_EQ(skip[0].own_samples, skip[0].samples);
   EXPECT_FLOAT_EQ(skip[1].object_depth, 3.0f);
   EXPECT_FALSE(skip[1].occluded);
   EXPECT_EQ(g.meta[0].label, KpLabel::Movable);
