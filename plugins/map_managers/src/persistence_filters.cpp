@@ -721,7 +721,7 @@ void ObjectPersistenceFilter::onKeyFrame(const std::shared_ptr<KeyFrame>& kf) {
     if (mt.created) {
       o.belief = initial_belief_;
       stats_.created++;
-      if (log::enabled(log::Level::Trace)) traceObject(*kf, o, "created");
+      traceObject(*kf, o, "created");
       continue;
     }
     const bool was_dormant = o.dormant;
