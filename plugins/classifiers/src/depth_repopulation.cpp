@@ -375,11 +375,13 @@ cv::Rect2f DepthRepopulation::centerWindow(const cv::Rect2f& box) const {
 
 /** Statistics of box `b` (`box`, clipped to the image) from the samples in
  *  buf_ (the box) and cbuf_ (its central window); `shared`: the overlaps
- *  left out (for the near layer). */
+ *  left out (for the near layer); `own_samples`: the box's samples outside
+ *  the other boxes (before an overlap fallback). */
 BoxDepthStats DepthRepopulation::boxStats(const Frame& frame, const BoundingBox& bb, int b, const cv::Rect2f& box,
-                                          const std::vector<cv::Rect2f>& shared) {
+                                          const std::vector<cv::Rect2f>& shared, int own_samples) {
   BoxDepthStats st;
   st.box = b;
+  st.own_samples = own_samples;
   st.class_id = bb.class_id;
   auto mit = margin_.find(bb.class_id);
   st.margin = static_cast<float>(mit == margin_.end() ? margin_default_ : mit->second);
@@ -478,7 +480,7 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
   std::vector<BoxDepthStats> st_of(sel.size());
   std::vector<cv::Rect2f> rect_of(sel.size());
   std::vector<char> done(sel.size(), 0);
-  std::vector<size_t> deferred;
+  std::vector<std::pair<size_t, int>> deferred;  // (index in sel, samples of its own)
   for (size_t k = 0; k < sel.size(); k++) {
     const int b = sel[k];
     const cv::Rect2f box = det.boxes[b].box & full;
@@ -497,18 +499,16 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
     const int own = static_cast<int>(buf_.size());
     if (overlap_fallback_ && !shared.empty() && own < min_samples_) {
       if (fallback_skip_others_) {
-        st_of[k].own_samples = own;
-        deferred.push_back(k);
+        deferred.emplace_back(k, own);
         continue;
       }
       shared.clear();  // too few pixels of its own: the shared ones back in
       sampleBoxDepths(frame, box, centerWindow(box), shared, stride_, buf_, cbuf_);
     }
-    st_of[k] = boxStats(frame, det.boxes[b], b, box, shared);
-    st_of[k].own_samples = own;
+    st_of[k] = boxStats(frame, det.boxes[b], b, box, shared, own);
     done[k] = 1;
   }
-  for (size_t k : deferred) {
+  for (const auto& [k, own] : deferred) {
     // The shared pixels back in, but not those on the object of a box they
     // are shared with (within front_margin in front of and that box's
     // depth margin behind its object depth).
@@ -530,9 +530,7 @@ void DepthRepopulation::classify(Frame& frame, const Detections& det, const Clas
         if (inRect(l.rect, x, y) && d >= l.from && d <= l.to) return false;
       return true;
     });
-    const int own = st_of[k].own_samples;
-    st_of[k] = boxStats(frame, det.boxes[sel[k]], sel[k], box, {});
-    st_of[k].own_samples = own;
+    st_of[k] = boxStats(frame, det.boxes[sel[k]], sel[k], box, {}, own);
     done[k] = 1;
   }
 

@@ -82,7 +82,7 @@ class DepthRepopulation : public KeypointClassifier {
  private:
   cv::Rect2f centerWindow(const cv::Rect2f& box) const;
   BoxDepthStats boxStats(const Frame& frame, const BoundingBox& bb, int b, const cv::Rect2f& box,
-                         const std::vector<cv::Rect2f>& shared);
+                         const std::vector<cv::Rect2f>& shared, int own_samples);
 
   std::vector<int> classes_, dynamic_classes_{1}, see_through_classes_;
   double min_score_ = 0, min_percentile_ = 0, center_fraction_ = 0.2, max_center_std_ = 0.3, occlusion_span_ = 0.8,
