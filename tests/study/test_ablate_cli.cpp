@@ -257,12 +257,15 @@ TEST(Ablate, ExecutableReplacedMidStudyStartsNoFurtherCell) {
   ASSERT_EQ(ablate("'" + study + "' --out '" + out + "' --prepare").exit_code, 0);
   const std::string exe = dir + "/dslam";  // a copy we can replace (RUNPATH is absolute)
   fs::copy_file(test::dslamExe(), exe);
+  // The new build is copied beforehand: copying it after the first cell
+  // could take longer than the second cell on a loaded machine, and the
+  // study would then start the third with the old file.
+  fs::copy_file(test::dslamExe(), exe + ".new");
   const std::string log = dir + "/ablate.log";
   const pid_t pid = startAndWaitForACell(exe, study, out, log);
   ASSERT_GT(pid, 0);
   int status = 0;
   // Replace the file as a linker does (a new file under the old name).
-  fs::copy_file(test::dslamExe(), exe + ".new");
   fs::rename(exe + ".new", exe);
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
