@@ -271,6 +271,42 @@ TEST(EvalObjects, DuplicateOnTheMovedObjectIsNotStale) {
   }
 }
 
+TEST(EvalObjects, AnObjectFirstSeenAfterThePlaceWasLeftIsFalseNotStale) {
+  // An estimate made only of what the camera saw at a place after the object
+  // had left it (another object's surface given the class) is no memory of
+  // the object: a false object, not a stale one. The suitcase left its place
+  // over frames 8-10 (gone after stamp(10)), the plant at frame 10.
+  const std::string d = tempDir("evalobj");
+  const std::string scene = writeScene(d + "/scene");
+  auto m = perfectMap();
+  json late_suit = estObject(24, 33, centre(kSuitOld, 0.7) + Eigen::Vector3d(-0.05, 0, 0), true);
+  late_suit["first_seen_t"] = stamp(10) + 0.05;
+  json late_plant = estObject(25, 64, centre(kPlant, 1.1), true);
+  late_plant["first_seen_t"] = stamp(12);
+  m.push_back(late_suit);
+  m.push_back(late_plant);
+  const auto r = evaluate(writeRun(d + "/run", m), scene);
+  EXPECT_EQ(r.stale, 0);
+  EXPECT_EQ(r.false_objects, 2);
+  EXPECT_EQ(r.moved_found, 1);
+  EXPECT_EQ(r.gone_inactive, 2);  // the plant's own (old) object is inactive
+  EXPECT_EQ(gt(r, "suitcase").old_places[0].state, "inactive");
+  EXPECT_EQ(gt(r, "plant").old_places[0].state, "inactive");
+  for (const auto& e : r.est) {
+    if (e.obj.id == 24 || e.obj.id == 25) {
+      EXPECT_EQ(e.verdict, eval::Verdict::False) << e.obj.id << " " << e.note;
+    }
+  }
+
+  // First seen while the suitcase was still leaving (before stamp(10)): what
+  // it saw may be the suitcase at its old place, so it is stale as before.
+  m[7]["first_seen_t"] = stamp(10) - 0.05;
+  const auto r2 = evaluate(writeRun(d + "/run2", m), scene);
+  EXPECT_EQ(r2.stale, 1);
+  EXPECT_EQ(r2.false_objects, 1);
+  EXPECT_EQ(gt(r2, "suitcase").old_places[0].state, "active");
+}
+
 TEST(EvalObjects, AFragmentOfTheMovedObjectsSurfaceInsideTheOldPlaceIsNotStale) {
   // The suitcase moved by less than its size: the places overlap. A second
   // active suitcase 3 cm outside its new box (a fragment of its surface, the

@@ -507,6 +507,7 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
         p.seen = o.visibleIn(residenceStart(o, f), f);
         p.counted = p.seen >= opt.min_visible_pixels;
         p.left_at = e->last;
+        p.left_t = e->t_last;
         g.old_places.push_back(p);
       }
     r.gt.push_back(std::move(g));
@@ -564,11 +565,15 @@ ObjectEvalResult evaluateObjects(const Scene& scene, const EstObjects& est, cons
         for (size_t pi = 0; pi < r.gt[gi].old_places.size(); pi++) out.push_back({gi, pi});
     return out;
   };
-  // The place a same-class object left that is nearest to e (g == npos: none).
+  // The place a same-class object left that is nearest to e (g == npos:
+  // none). Places left before e was first seen do not count: an estimate
+  // made of what the camera saw there after the object had gone is no
+  // memory of it (a wrong class on what is there now: false, not stale).
   auto nearestOld = [&](const EstObjectResult& e, double& d_out) {
     Place best{std::string::npos, 0};
     d_out = std::numeric_limits<double>::infinity();
     for (const Place& p : oldPlaces(e.obj.class_id)) {
+      if (e.obj.first_seen_t > r.gt[p.g].old_places[p.p].left_t) continue;
       const double d = r.gt[p.g].old_places[p.p].box.distance(e.obj.centroid);
       if (d < d_out) {
         d_out = d;

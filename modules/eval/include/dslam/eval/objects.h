@@ -210,6 +210,7 @@ struct GtObjectResult {
     std::vector<int64_t> est;  ///< unmatched estimated objects of the class within match_radius
     std::string state;      ///< "inactive" (all of them), "active" (one is stale), "not mapped" (none)
     int left_at = 0;        ///< last frame of the event (it is gone from the place after it)
+    double left_t = 0;      ///< time of that frame (the event's t_last)
     /** Largest fraction of the place seen in one frame after it left
      *  (ObjectEvalOptions::place_seen_fraction); -1 = unknown (no depth). */
     double seen_after = -1;
